@@ -1,0 +1,48 @@
+# The one entry point for humans and CI. `make caseA` and `make test` do all the set-up.
+PYTHON ?= python3
+VENV   := .venv
+BIN    := $(VENV)/bin
+STAMP  := $(VENV)/.installed-stamp
+CLI    := $(BIN)/pavement-mcmc
+# BLAS threads fight the compiled solver kernel for the two cores
+export OMP_NUM_THREADS ?= 1
+export OPENBLAS_NUM_THREADS ?= 1
+export MKL_NUM_THREADS ?= 1
+
+.PHONY: help install test validate bench caseA caseB caseC cases lint clean
+
+help:
+	@echo "make caseA|caseB|caseC  run the paper's cases on the shipped data -> runs/caseX/"
+	@echo "make test               set up .venv and run the fast test suite"
+	@echo "make validate           slow validation runs (coverage, calibration, hidden effects)"
+	@echo "make bench              solver and sampler benchmarks (figures and ratios)"
+	@echo "make lint               ruff"
+
+$(STAMP): pyproject.toml
+	$(PYTHON) -m venv $(VENV)
+	$(BIN)/python -m pip install -q --upgrade pip
+	$(BIN)/python -m pip install -q -e ".[test]"
+	touch $(STAMP)
+
+install: $(STAMP)
+
+test: $(STAMP)
+	$(BIN)/python -m pytest -q
+
+validate: $(STAMP)
+	$(BIN)/python -m pytest -q -m slow -o addopts="" -s
+
+bench: $(STAMP)
+	$(BIN)/python benchmarks/run_all.py
+
+caseA caseB caseC: $(STAMP)
+	$(CLI) fit runs/$@.toml --out runs/$@ --overwrite
+	$(CLI) report runs/$@
+
+cases: caseA caseB caseC
+
+lint: $(STAMP)
+	$(BIN)/ruff check pavement_mcmc tests benchmarks
+
+clean:
+	rm -rf runs/caseA runs/caseB runs/caseC .pytest_cache
