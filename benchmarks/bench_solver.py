@@ -1,0 +1,194 @@
+"""Forward-solver benchmark on the reference case (Case C grid: 28 h of 15-min data).
+
+Run ``python benchmarks/bench_solver.py [--quick]``; ``make bench`` calls :func:`run`.
+For each batch size it reports the time per forward solve of the compiled Crank–Nicolson
+kernel, solves per second, the grid's accuracy (max abs difference, over all nodes and
+observation times, against a solution refined 4x in both dx and dt) and the speed-up over the
+plain batched NumPy implementation (``solve_numpy``) timed in the same process. It also times
+Du Fort–Frankel at the largest step that reaches the same accuracy. ``cpu us`` is process CPU
+time per solve (all threads): on a machine shared with other busy processes wall time is
+inflated, CPU time much less so. Times are medians of several repeats after a warm-up.
+"""
+
+from __future__ import annotations
+
+import csv
+import os
+import time
+from datetime import datetime
+from pathlib import Path
+
+os.environ.setdefault("OMP_NUM_THREADS", "1")  # the solver uses no BLAS; keep NumPy's single
+
+import numpy as np  # noqa: E402
+
+from pavement_mcmc.measurements import Measurements  # noqa: E402
+from pavement_mcmc.solver import (  # noqa: E402
+    DEFAULT_DT,
+    DEFAULT_DX,
+    Coefficients,
+    Forcing,
+    Grid,
+    solve,
+    solve_numpy,
+)
+
+CASE = Path(__file__).resolve().parents[1] / "data" / "reference_case" / "measurements.csv"
+BATCHES = (1, 32, 256)
+DFF_DTS = (60.0, 30.0, 20.0, 15.0, 10.0, 6.0, 4.0, 3.0, 2.0, 1.0)
+
+
+def load_reference(path: Path = CASE) -> Measurements:
+    """The shipped reference case as Measurements (0-4 cm observed, 5 cm bottom, sigma 0.25)."""
+    with open(path, newline="") as fh:
+        rows = list(csv.DictReader(fh))
+    stamps = [datetime.fromisoformat(r["time"].replace("Z", "+00:00")) for r in rows]
+    t = np.array([(s - stamps[0]).total_seconds() for s in stamps])
+
+    def col(name: str) -> np.ndarray:
+        return np.array([float(r[name]) for r in rows])
+
+    return Measurements(
+        t=t,
+        time0=rows[0]["time"],
+        T_air=col("T_air"),
+        q_net=col("q_net"),
+        wind=col("wind"),
+        rain=col("rain"),
+        depths=np.array([0.0, 0.01, 0.02, 0.03, 0.04]),
+        T_obs=np.stack([col(f"T_{d}cm") for d in range(5)], axis=1),
+        bottom_depth=0.05,
+        T_bottom=col("T_5cm"),
+        sigma=0.25,
+        source=str(path),
+    )
+
+
+def _coeffs(meas: Measurements, grid: Grid, n_sets: int, seed: int = 0) -> Coefficients:
+    """Sets scattered around the paper's Case C estimates, with a rough-ish h(t) per set."""
+    rng = np.random.default_rng(seed)
+    n_int = grid.n_obs - 1
+    kappa = 1.31 * rng.uniform(0.8, 1.2, n_sets)
+    C = 0.99e6 * rng.uniform(0.8, 1.2, n_sets)
+    h = 10.0 + np.cumsum(rng.normal(0.0, 0.5, (n_sets, n_int)), axis=1)
+    return Coefficients.uniform(kappa, C, np.clip(h, 1.0, 40.0), meas.q_net, grid.n_nodes)
+
+
+def _time(fn, min_time: float, repeats: int) -> tuple[float, float]:
+    """Median over ``repeats`` of the mean wall time per call (each repeat lasts >= ``min_time``)
+    and the matching median CPU time of the process (all threads; robust to a busy machine)."""
+    fn()  # warm-up (compilation, caches)
+    n = 1
+    while True:
+        t0 = time.perf_counter()
+        for _ in range(n):
+            fn()
+        dt = time.perf_counter() - t0
+        if dt >= min_time:
+            break
+        n *= 2
+    times, cpu = [], []
+    for _ in range(repeats):
+        t0, c0 = time.perf_counter(), time.process_time()
+        for _ in range(n):
+            fn()
+        times.append((time.perf_counter() - t0) / n)
+        cpu.append((time.process_time() - c0) / n)
+    return float(np.median(times)), float(np.median(cpu))
+
+
+def _accuracy(meas: Measurements, dx: float, dt: float, scheme: str, ref: np.ndarray) -> float:
+    g = Grid.build(meas, dx=dx, dt=dt)
+    c = Coefficients.uniform(1.31, 0.99e6, np.full(g.n_obs - 1, 10.0), meas.q_net, g.n_nodes)
+    T = solve(g, Forcing.from_measurements(meas, g), c, scheme=scheme)[0]
+    return float(np.abs(T - ref).max())
+
+
+def run(quick: bool = False) -> list[dict]:
+    """Benchmark rows: one per (scheme, batch size), as dicts of plain numbers and strings."""
+    meas = load_reference()
+    min_time, repeats = (0.05, 3) if quick else (0.2, 7)
+    dx, dt = DEFAULT_DX, DEFAULT_DT
+    fine = Grid.build(meas, dx=dx / 4, dt=dt / 4)
+    cf = Coefficients.uniform(1.31, 0.99e6, np.full(fine.n_obs - 1, 10.0), meas.q_net, fine.n_nodes)
+    ref = solve(fine, Forcing.from_measurements(meas, fine), cf)[0][:, ::4]
+    err_cn = _accuracy(meas, dx, dt, "cn", ref)
+    dt_dff, err_dff = DFF_DTS[-1], np.inf
+    for cand in DFF_DTS:
+        err_dff = _accuracy(meas, dx, cand, "dff", ref)
+        if err_dff <= max(err_cn, 0.01):
+            dt_dff = cand
+            break
+    rows = []
+    grid = Grid.build(meas, dx=dx, dt=dt)
+    forcing = Forcing.from_measurements(meas, grid)
+    grid_dff = Grid.build(meas, dx=dx, dt=dt_dff)
+    forcing_dff = Forcing.from_measurements(meas, grid_dff)
+    for n_sets in BATCHES:
+        coeffs = _coeffs(meas, grid, n_sets)
+        t_cn, cpu_cn = _time(lambda c=coeffs: solve(grid, forcing, c), min_time, repeats)
+        t_np, _ = _time(lambda c=coeffs: solve_numpy(grid, forcing, c), min_time, max(3, repeats // 2))
+        rows.append(
+            dict(
+                scheme="cn",
+                n_sets=n_sets,
+                dx_mm=dx * 1e3,
+                dt_s=dt,
+                us_per_solve=1e6 * t_cn / n_sets,
+                cpu_us_per_solve=1e6 * cpu_cn / n_sets,
+                solves_per_s=n_sets / t_cn,
+                max_err_degC=err_cn,
+                numpy_us_per_solve=1e6 * t_np / n_sets,
+                speedup_vs_numpy=t_np / t_cn,
+            )
+        )
+        if quick and n_sets != BATCHES[-1]:
+            continue
+        cd = _coeffs(meas, grid_dff, n_sets)
+        t_dff, cpu_dff = _time(lambda c=cd: solve(grid_dff, forcing_dff, c, scheme="dff"), min_time, 3)
+        rows.append(
+            dict(
+                scheme="dff",
+                n_sets=n_sets,
+                dx_mm=dx * 1e3,
+                dt_s=dt_dff,
+                us_per_solve=1e6 * t_dff / n_sets,
+                cpu_us_per_solve=1e6 * cpu_dff / n_sets,
+                solves_per_s=n_sets / t_dff,
+                max_err_degC=err_dff,
+                numpy_us_per_solve=float("nan"),
+                speedup_vs_numpy=float("nan"),
+            )
+        )
+    return rows
+
+
+def format_table(rows: list[dict]) -> str:
+    head = (
+        f"{'scheme':6} {'sets':>5} {'dx mm':>6} {'dt s':>6} {'us/solve':>9} {'cpu us':>7} {'solves/s':>10} "
+        f"{'max err C':>10} {'numpy us':>9} {'speedup':>8}"
+    )
+    lines = [head, "-" * len(head)]
+    for r in rows:
+        lines.append(
+            f"{r['scheme']:6} {r['n_sets']:5d} {r['dx_mm']:6.2f} {r['dt_s']:6.0f} "
+            f"{r['us_per_solve']:9.2f} {r['cpu_us_per_solve']:7.2f} {r['solves_per_s']:10.0f} "
+            f"{r['max_err_degC']:10.4f} "
+            f"{r['numpy_us_per_solve']:9.1f} {r['speedup_vs_numpy']:8.1f}"
+        )
+    return "\n".join(lines)
+
+
+if __name__ == "__main__":
+    import argparse
+
+    import numba
+
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--quick", action="store_true", help="fewer repeats, fewer DFF rows")
+    args = ap.parse_args()
+    print(
+        f"reference case {CASE.name}; numba threads: {numba.get_num_threads()}; "
+        f"layer {numba.config.THREADING_LAYER}; load average {os.getloadavg()[0]:.1f}"
+    )
+    print(format_table(run(quick=args.quick)))

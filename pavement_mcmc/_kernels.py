@@ -1,0 +1,341 @@
+"""Compiled (numba) time-stepping kernels behind :func:`pavement_mcmc.solver.solve`.
+
+Internal module: the public API, the discretisation and its documentation live in
+:mod:`pavement_mcmc.solver`. Every array here is laid out with the parameter sets as the LAST,
+contiguous axis (``(n_unknowns, n_sets)``), so the inner loops run over sets and the compiler
+vectorises them (AVX2/AVX-512). The outer ``prange`` runs over blocks of ``block`` sets; each
+block integrates the whole time window with its working set (~10 arrays of ``n_unknowns x
+block`` doubles) resident in L1/L2.
+
+Notation (per set, per unknown node ``i = 0 .. N-1``; node ``N`` is the Dirichlet bottom):
+
+- ``a[i] = kappa[i-1] / (C[i] dx^2)`` (``a[0] = 0``), ``c[i] = kappa[i] / (C[i] dx^2)``,
+  except ``c[0] = 2 kappa[0] / (C[0] dx^2)`` (half control volume at the surface), 1/s;
+- ``hs = 2 / (C[0] dx)``, m^2 K J^-1, the surface flux -> surface-node rate factor;
+- Crank-Nicolson with ``r = dt/2``: ``l = r a``, ``u = r c``, ``hc = dt / (C[0] dx) = r hs``.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit, prange
+
+_FM = {"contract"}  # allow fused multiply-add only; no reassociation (measured: same speed)
+
+
+@njit(cache=True, fastmath=_FM, inline="always")
+def _lin(v0, v1, w):
+    """Linear interpolation ``v0 + w (v1 - v0)``."""
+    return v0 + w * (v1 - v0)
+
+
+@njit(cache=True, fastmath=_FM)
+def _rates(kap, C, dx, a, c, hs):
+    """Fill the per-node rates ``a``, ``c`` (1/s) and surface factor ``hs`` from cell kappa."""
+    N, nb = a.shape
+    inv_dx2 = 1.0 / (dx * dx)
+    for s in range(nb):
+        a[0, s] = 0.0
+        c[0, s] = 2.0 * kap[0, s] * inv_dx2 / C[0, s]
+        hs[s] = 2.0 / (C[0, s] * dx)
+    for i in range(1, N):
+        for s in range(nb):
+            inv = inv_dx2 / C[i, s]
+            a[i, s] = kap[i - 1, s] * inv
+            c[i, s] = kap[i, s] * inv
+
+
+@njit(cache=True, fastmath=_FM)
+def _lagged_kappa(kap0, beta, T_ref, T, Tb, kap):
+    """``kap = kap0 (1 + beta (T_cell - T_ref))`` with ``T_cell`` the mean of the cell's nodes."""
+    N, nb = T.shape
+    for i in range(N - 1):
+        for s in range(nb):
+            Tc = 0.5 * (T[i, s] + T[i + 1, s])
+            kap[i, s] = kap0[i, s] * (1.0 + beta[s] * (Tc - T_ref))
+    for s in range(nb):
+        Tc = 0.5 * (T[N - 1, s] + Tb)
+        kap[N - 1, s] = kap0[N - 1, s] * (1.0 + beta[s] * (Tc - T_ref))
+
+
+@njit(cache=True, fastmath=_FM)
+def _cn_factor(a, c, r, l, u, g, invD, d0):
+    """Bottom-up (reverse Thomas) factorisation of ``I + r A`` below the surface row.
+
+    Row ``i``: ``-l[i] T[i-1] + (1 + l[i] + u[i]) T[i] - u[i] T[i+1] = R[i]``. Eliminating from
+    the bottom gives ``T[i] = (R'[i] + l[i] T[i-1]) invD[i]`` with ``R'[i] = R[i] + g[i+1] R'[i+1]``
+    and ``g[i+1] = u[i] invD[i+1]``. Only the surface pivot ``d0 + hc h`` depends on ``h``; ``d0``
+    is returned without it.
+    """
+    N, nb = a.shape
+    for s in range(nb):
+        l[N - 1, s] = r * a[N - 1, s]
+        u[N - 1, s] = r * c[N - 1, s]
+        invD[N - 1, s] = 1.0 / (1.0 + l[N - 1, s] + u[N - 1, s])
+    for i in range(N - 2, -1, -1):
+        for s in range(nb):
+            li = r * a[i, s]
+            ui = r * c[i, s]
+            l[i, s] = li
+            u[i, s] = ui
+            gi = ui * invD[i + 1, s]
+            g[i + 1, s] = gi
+            dd = 1.0 + li + ui - gi * l[i + 1, s]
+            if i > 0:
+                invD[i, s] = 1.0 / dd
+            else:
+                d0[s] = dd
+                invD[0, s] = 0.0
+
+
+@njit(cache=True, fastmath=_FM)
+def _cn_step(T, R, l, u, g, invD0, hh, Ta_sum, Tb_sum, q_sum, invD):
+    """One Crank-Nicolson step in place: bottom-up RHS + reduction, then top-down substitution.
+
+    ``hh = hc h`` (per set), ``Ta_sum = T_air^n + T_air^{n+1}``, ``Tb_sum`` likewise,
+    ``q_sum = hc (q^n + q^{n+1})`` (per set), ``invD0 = 1 / (d0 + hh)``.
+    """
+    N, nb = T.shape
+    if N == 1:
+        for s in range(nb):
+            t0 = T[0, s]
+            rr = t0 + u[0, s] * (Tb_sum - t0) + hh[s] * (Ta_sum - t0) + q_sum[s]
+            T[0, s] = rr * invD0[s]
+        return
+    i = N - 1
+    for s in range(nb):
+        t = T[i, s]
+        R[i, s] = t + l[i, s] * (T[i - 1, s] - t) + u[i, s] * (Tb_sum - t)
+    for i in range(N - 2, 0, -1):
+        for s in range(nb):
+            t = T[i, s]
+            R[i, s] = (
+                t + l[i, s] * (T[i - 1, s] - t) + u[i, s] * (T[i + 1, s] - t) + g[i + 1, s] * R[i + 1, s]
+            )
+    for s in range(nb):
+        t = T[0, s]
+        rr = t + u[0, s] * (T[1, s] - t) + hh[s] * (Ta_sum - t) + q_sum[s] + g[1, s] * R[1, s]
+        T[0, s] = rr * invD0[s]
+    for i in range(1, N):
+        for s in range(nb):
+            T[i, s] = (R[i, s] + l[i, s] * T[i - 1, s]) * invD[i, s]
+
+
+@njit(cache=True, fastmath=_FM)
+def _be_step(T, R, l, u, g, invD0, hh, Ta1, Tb1, q1, invD):
+    """One backward-Euler step of length ``r`` (half a CN step) with the CN factorisation.
+
+    ``(I + r A) T^+ = T + r b(t^+)``: same matrix as CN, right-hand side without the explicit
+    half; ``q1 = hc q(t^+)``.
+    """
+    N, nb = T.shape
+    if N == 1:
+        for s in range(nb):
+            T[0, s] = (T[0, s] + u[0, s] * Tb1 + hh[s] * Ta1 + q1[s]) * invD0[s]
+        return
+    i = N - 1
+    for s in range(nb):
+        R[i, s] = T[i, s] + u[i, s] * Tb1
+    for i in range(N - 2, 0, -1):
+        for s in range(nb):
+            R[i, s] = T[i, s] + g[i + 1, s] * R[i + 1, s]
+    for s in range(nb):
+        T[0, s] = (T[0, s] + hh[s] * Ta1 + q1[s] + g[1, s] * R[1, s]) * invD0[s]
+    for i in range(1, N):
+        for s in range(nb):
+            T[i, s] = (R[i, s] + l[i, s] * T[i - 1, s]) * invD[i, s]
+
+
+@njit(cache=True, fastmath=_FM)
+def _surface_pivot(d0, hc, h, invD0, hh):
+    nb = d0.shape[0]
+    for s in range(nb):
+        hh[s] = hc[s] * h[s]
+        invD0[s] = 1.0 / (d0[s] + hh[s])
+
+
+@njit(cache=True, fastmath=_FM)
+def _prepare(kap0, CB, beta, T_ref, nonlin, dx, r, h, T, Tb0, w, z):
+    """Rates, bottom-up factorisation and surface pivot for ``I + r A`` (lagged kappa if nonlin)."""
+    kap, a, c, l, u, g, invD = w[0], w[1], w[2], w[3], w[4], w[5], w[6]
+    d0, hs, hc, hh, invD0 = z[0], z[1], z[2], z[3], z[4]
+    if nonlin:
+        _lagged_kappa(kap0, beta, T_ref, T, Tb0, kap)
+        _rates(kap, CB, dx, a, c, hs)
+    else:
+        _rates(kap0, CB, dx, a, c, hs)
+    _cn_factor(a, c, r, l, u, g, invD, d0)
+    for s in range(hs.shape[0]):
+        hc[s] = r * hs[s]
+    _surface_pivot(d0, hc, h, invD0, hh)
+
+
+@njit(cache=True, fastmath=_FM)
+def _be_pair(T, w, z, Tah, Tbh, Ta1, Tb1, qa, qb, wh, w1):
+    """Replace one CN step by two backward-Euler half steps (Rannacher start-up, damps the
+    stiff modes excited by a non-smooth initial profile); ``w``, ``z`` hold the factorisation."""
+    l, u, g, invD, R = w[3], w[4], w[5], w[6], w[7]
+    hc, hh, invD0, qs = z[2], z[3], z[4], z[5]
+    nb = T.shape[1]
+    for s in range(nb):
+        qs[s] = hc[s] * _lin(qa[s], qb[s], wh)
+    _be_step(T, R, l, u, g, invD0, hh, Tah, Tbh, qs, invD)
+    for s in range(nb):
+        qs[s] = hc[s] * _lin(qa[s], qb[s], w1)
+    _be_step(T, R, l, u, g, invD0, hh, Ta1, Tb1, qs, invD)
+
+
+@njit(cache=True, fastmath=_FM)
+def _store(out, j, s0, T, Tb):
+    N, nb = T.shape
+    for i in range(N):
+        for s in range(nb):
+            out[j, i, s0 + s] = T[i, s]
+    for s in range(nb):
+        out[j, N, s0 + s] = Tb
+
+
+@njit(cache=True, fastmath=_FM)
+def _block_inputs(kappaT, CT, T0, s0, nb):
+    ncell = kappaT.shape[0]
+    kap0 = np.empty((ncell, nb))
+    CB = np.empty((ncell, nb))
+    T = np.empty((ncell, nb))
+    for i in range(ncell):
+        for s in range(nb):
+            kap0[i, s] = kappaT[i, s0 + s]
+            CB[i, s] = CT[i, s0 + s]
+            T[i, s] = T0[i]
+    return kap0, CB, T
+
+
+@njit(cache=True, fastmath=_FM)
+def _cn_block(
+    kappaT, CT, hT, qT, beta, T_ref, nonlin, T_air, T_bot, T0, t_obs, substeps, dx, n_start, damp, s0, nb, out
+):
+    """Crank-Nicolson over all observation intervals for sets ``s0 .. s0+nb-1``; fills ``out``.
+
+    Parameters
+    ----------
+    kappaT : (N, S) cell conductivities, W m-1 K-1 (cell ``i`` = ``[x_i, x_i+1]``).
+    CT : (N+1, S) nodal heat capacities, J m-3 K-1 (only the first N are used).
+    hT : (n_obs-1, S) W m-2 K-1;  qT : (n_obs, S) W m-2;  beta : (S,) 1/K.
+    T_air, T_bot : (n_obs,) degC;  T0 : (N+1,) degC;  t_obs : (n_obs,) s;  substeps : (n_obs-1,).
+    n_start : the first ``n_start`` CN steps are each replaced by two backward-Euler half steps.
+    damp : if True, so is the first step of every observation interval (``h`` may jump there).
+    out : (n_obs, N+1, S) output, degC.
+    """
+    N = kappaT.shape[0]
+    n_int = substeps.shape[0]
+    kap0, CB, T = _block_inputs(kappaT, CT, T0, s0, nb)
+    w = np.zeros((8, N, nb))
+    z = np.zeros((6, nb))
+    l, u, g, invD, R = w[3], w[4], w[5], w[6], w[7]
+    d0, hc, hh, invD0, qs = z[0], z[2], z[3], z[4], z[5]
+    bb = beta[s0 : s0 + nb]
+    _store(out, 0, s0, T, T_bot[0])
+    dt_fact = -1.0
+    nstep = 0
+    for j in range(n_int):
+        ns = substeps[j]
+        dt = (t_obs[j + 1] - t_obs[j]) / ns
+        r = 0.5 * dt
+        hj = hT[j, s0 : s0 + nb]
+        qa = qT[j, s0 : s0 + nb]
+        qb = qT[j + 1, s0 : s0 + nb]
+        if not nonlin:
+            if dt != dt_fact:  # refactorise only when the step length changes
+                _prepare(kap0, CB, bb, T_ref, False, dx, r, hj, T, 0.0, w, z)
+                dt_fact = dt
+            else:
+                _surface_pivot(d0, hc, hj, invD0, hh)
+        for m in range(ns):
+            w0 = m / ns
+            w1 = (m + 1) / ns
+            Ta0 = _lin(T_air[j], T_air[j + 1], w0)
+            Ta1 = _lin(T_air[j], T_air[j + 1], w1)
+            Tb0 = _lin(T_bot[j], T_bot[j + 1], w0)
+            Tb1 = _lin(T_bot[j], T_bot[j + 1], w1)
+            if nonlin:
+                _prepare(kap0, CB, bb, T_ref, True, dx, r, hj, T, Tb0, w, z)
+            if nstep < n_start or (m == 0 and damp):
+                wh = (m + 0.5) / ns
+                _be_pair(
+                    T,
+                    w,
+                    z,
+                    _lin(T_air[j], T_air[j + 1], wh),
+                    _lin(T_bot[j], T_bot[j + 1], wh),
+                    Ta1,
+                    Tb1,
+                    qa,
+                    qb,
+                    wh,
+                    w1,
+                )
+            else:
+                for s in range(nb):
+                    qs[s] = hc[s] * (_lin(qa[s], qb[s], w0) + _lin(qa[s], qb[s], w1))
+                _cn_step(T, R, l, u, g, invD0, hh, Ta0 + Ta1, Tb0 + Tb1, qs, invD)
+            nstep += 1
+        _store(out, j + 1, s0, T, T_bot[j + 1])
+
+
+@njit(cache=True, parallel=True)
+def cn_parallel(
+    kappaT, CT, hT, qT, beta, T_ref, nonlin, T_air, T_bot, T0, t_obs, substeps, dx, n_start, damp, block, out
+):
+    """:func:`_cn_block` over blocks of ``block`` sets, the blocks spread over numba's threads."""
+    S = kappaT.shape[1]
+    n_blocks = (S + block - 1) // block
+    for b in prange(n_blocks):
+        s0 = b * block
+        _cn_block(
+            kappaT,
+            CT,
+            hT,
+            qT,
+            beta,
+            T_ref,
+            nonlin,
+            T_air,
+            T_bot,
+            T0,
+            t_obs,
+            substeps,
+            dx,
+            n_start,
+            damp,
+            s0,
+            min(block, S - s0),
+            out,
+        )
+
+
+@njit(cache=True)
+def cn_serial(
+    kappaT, CT, hT, qT, beta, T_ref, nonlin, T_air, T_bot, T0, t_obs, substeps, dx, n_start, damp, block, out
+):
+    """As :func:`cn_parallel`, on the calling thread (no thread start-up cost)."""
+    S = kappaT.shape[1]
+    for s0 in range(0, S, block):
+        _cn_block(
+            kappaT,
+            CT,
+            hT,
+            qT,
+            beta,
+            T_ref,
+            nonlin,
+            T_air,
+            T_bot,
+            T0,
+            t_obs,
+            substeps,
+            dx,
+            n_start,
+            damp,
+            s0,
+            min(block, S - s0),
+            out,
+        )
