@@ -69,8 +69,8 @@ DATA_KEYS = (
     "max_gap_fill",
     "columns",
 )
-#: Valid keys of [grid] and their defaults (dx in m, dt in s).
-GRID_DEFAULTS: dict[str, Any] = {"dx": 0.005, "dt": 60.0, "scheme": "cn"}
+#: Valid keys of [grid] and their defaults (dx in m, dt in s; None = the solver's measured default).
+GRID_DEFAULTS: dict[str, Any] = {"dx": None, "dt": None, "scheme": "cn"}
 #: Valid keys of [sampler] and their defaults (None: the sampler chooses).
 SAMPLER_DEFAULTS: dict[str, Any] = {
     "kind": "emcee",

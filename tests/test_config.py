@@ -74,7 +74,7 @@ def test_shipped_cases_load(case, h):
         assert p["gamma"]["prior"] == {"dist": "rayleigh", "scale": 2.22}
     else:
         assert p["h"]["prior"] == {"dist": "truncnormal", "mean": 10.0, "sd": 5.0}
-    assert cfg.grid == {"dx": 0.005, "dt": 60.0, "scheme": "cn"}
+    assert cfg.grid == {"dx": None, "dt": None, "scheme": "cn"}
     assert cfg.sampler["seed"] == 1
     json.dumps(cfg.raw)  # JSON-serialisable
 
@@ -94,7 +94,7 @@ def test_accessors_return_copies():
     cfg = load_case(RUNS / "caseA.toml")
     cfg.grid["dx"] = 1.0
     cfg.parameters["kappa"]["prior"]["mean"] = 0.0
-    assert cfg.grid["dx"] == 0.005
+    assert cfg.grid["dx"] is None
     assert cfg.parameters["kappa"]["prior"]["mean"] == 2.27
 
 
@@ -234,7 +234,7 @@ def test_load_with_overrides():
     cfg = load_case(RUNS / "caseA.toml", over, additions={"model": {"extensions": ["two_layer"]}})
     assert cfg.measurements.sigma == 0.3
     assert cfg.measurements.t[-1] == 20 * 3600.0
-    assert cfg.grid == {"dx": 0.0025, "dt": 60.0, "scheme": "cn"}
+    assert cfg.grid == {"dx": 0.0025, "dt": None, "scheme": "cn"}
     assert cfg.raw["grid"]["dx"] == 0.0025
     assert cfg.model["extensions"] == ["two_layer"]
     assert cfg.model["h"]["edges_hours"] == [0, 6, 18, 28]

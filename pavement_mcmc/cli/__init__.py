@@ -1,0 +1,80 @@
+"""The ``pavement-mcmc`` command line. Each sub-command lives in its own module of this package
+and provides ``add_parser(subparsers)`` and ``run(args) -> int``. Only the CLI prints."""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import sys
+
+from .. import __version__
+
+#: sub-command name -> module in this package (in the order ``--help`` lists them)
+COMMANDS = {
+    "simulate": "simulate",
+    "fit": "fit",
+    "resume": "fit",
+    "diagnostics": "diagnostics",
+    "report": "report",
+    "sensitivity": "sensitivity",
+    "export": "export",
+    "urban": "urban",
+    "diagnose": "diagnose",
+    "compare": "compare",
+}
+
+_DESCRIPTION = """\
+Estimate the thermal conductivity kappa, the volumetric heat capacity C and the surface heat
+transfer coefficient h(t) of a pavement from buried temperature sensors (Bayesian MCMC over a
+1D heat-conduction model), then criticise the model: where it fails and which effect is missing.
+
+Typical loop:
+  pavement-mcmc fit runs/caseA.toml --out runs/caseA      sample the posterior
+  pavement-mcmc diagnostics runs/caseA                     can the chain be trusted?
+  pavement-mcmc report runs/caseA                          one HTML file with every figure
+  pavement-mcmc diagnose runs/caseA                        which physical effect is missing?
+  pavement-mcmc fit runs/caseA.toml --add two_layer --out runs/caseA_2l
+  pavement-mcmc compare runs/caseA runs/caseA_2l          watch the error fall
+"""
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="pavement-mcmc",
+        description=_DESCRIPTION,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    parser.add_argument("--version", action="version", version=f"pavement_mcmc {__version__}")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
+    seen = set()
+    for module in COMMANDS.values():
+        if module in seen:
+            continue
+        seen.add(module)
+        try:
+            mod = importlib.import_module(f".{module}", __name__)
+        except ModuleNotFoundError as err:
+            if err.name != f"{__name__}.{module}":
+                raise
+            continue  # command not built yet
+        mod.add_parser(sub)
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    try:
+        return int(args.func(args) or 0)
+    except KeyboardInterrupt:
+        print("interrupted", file=sys.stderr)
+        return 130
+    except (ValueError, FileNotFoundError, FileExistsError, KeyError, OSError) as err:
+        # DataError, ConfigError, StoreMismatch are ValueErrors with messages for users
+        msg = err.args[0] if isinstance(err, KeyError) and err.args else err
+        print(f"pavement-mcmc {args.command}: error: {msg}", file=sys.stderr)
+        return 2
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())

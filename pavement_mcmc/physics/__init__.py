@@ -1,0 +1,12 @@
+"""Physics: the base conduction model and the catalogue of extensions (effects it may miss)."""
+
+from . import catalogue  # noqa: F401  (registers the shipped extensions)
+from .base import Extension
+from .hbasis import HBasis
+from .model import LITERATURE, Model
+from .registry import extension_names, get_extension, register_extension
+
+__all__ = [
+    "Extension", "HBasis", "LITERATURE", "Model",
+    "extension_names", "get_extension", "register_extension",
+]
