@@ -1,0 +1,113 @@
+"""Sampler benchmark on the shipped reference case: time to ESS >= 1000, and ESS per solve.
+
+``run(quick=False) -> list[dict]``:
+
+1. ``fast`` run to the stopping rule (ESS >= 1000 for every parameter, kept chain >= 50 tau,
+   split-R-hat < 1.01, no drift) on Case A and (not with ``quick``) Case C; wall time
+   INCLUDES the preparation (MAP, Laplace) — targets: Case A <= 2 s, Case C <= 30 s.
+2. The paper's MH, emcee's default stretch move and ``fast`` for the same fixed budget of
+   solves on each case: min ESS over parameters per 1000 solves and per second (all three
+   start from the Laplace approximation; burn-in by the loop's rule).
+
+``python benchmarks/bench_samplers.py [--quick]`` prints both tables.
+"""
+
+from __future__ import annotations
+
+import sys
+import time
+import warnings
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+from pavement_mcmc import diagnostics as dg  # noqa: E402
+from pavement_mcmc.config import load_case  # noqa: E402
+from pavement_mcmc.map import find_map  # noqa: E402
+from pavement_mcmc.problem import build_problem  # noqa: E402
+from pavement_mcmc.samplers import get_sampler  # noqa: E402
+from pavement_mcmc.samplers.loop import run_sampler  # noqa: E402
+from pavement_mcmc.storage import MemoryStore  # noqa: E402
+
+
+def _problem(case: str):
+    return build_problem(load_case(ROOT / "runs" / f"{case}.toml"))
+
+
+def _store(problem, s):
+    return MemoryStore.create(problem.space.free, problem.posterior.blob_names, s.n_chains,
+                              {"sampler": s.name})
+
+
+def to_target(case: str, max_seconds: float, n_chains: int | None = None) -> dict:
+    """``fast`` until the stopping rule holds; wall time includes the MAP."""
+    pr = _problem(case)
+    pr.posterior(pr.space.initial()[None])  # compile / warm up outside the timing
+    t0 = time.perf_counter()
+    s = get_sampler("fast", pr.posterior, n_chains=n_chains, seed=1)
+    s.prepare()
+    st = _store(pr, s)
+    res = run_sampler(s, st, ess_target=1000, max_steps=10**7, max_seconds=max_seconds)
+    wall = time.perf_counter() - t0
+    return {"case": case, "sampler": "fast", "converged": res.converged, "wall_s": wall,
+            "solves": res.n_evals, "steps": res.n_steps, "min_ess": float(res.ess.min()),
+            "max_rhat": float(res.rhat.max()), "acceptance": res.acceptance,
+            "reason": res.reason}
+
+
+def fixed_budget(case: str, kind: str, solves: int, lap) -> dict:
+    """``kind`` for ``solves`` posterior evaluations (after the shared MAP)."""
+    pr = _problem(case)
+    s = get_sampler(kind, pr.posterior, seed=2, laplace=lap)
+    s.prepare()
+    st = _store(pr, s)
+    steps = max(40, solves // s.n_chains)
+    t0 = time.perf_counter()
+    # adaptation: the first quarter of the budget (burn-in = adaptation + MSER)
+    res = run_sampler(s, st, ess_target=1e12, max_steps=steps, n_adapt=steps // 4)
+    wall = time.perf_counter() - t0
+    d = st.read()
+    burn = min(res.burn_in, d.n_saved // 2)
+    kept = d.chain[burn:]
+    e = dg.ess(kept)
+    n = res.n_evals - s.n_prep_evals
+    return {"case": case, "sampler": kind, "solves": n, "wall_s": wall,
+            "min_ess": float(e.min()), "ess_per_1000_solves": 1000 * float(e.min()) / n,
+            "ess_per_s": float(e.min()) / wall, "acceptance": float(d.accepted[burn:].mean()),
+            "max_rhat": float(dg.split_rhat(kept).max())}
+
+
+def run(quick: bool = False) -> list[dict]:
+    """Both benchmarks; one dict per row (see the module docstring)."""
+    warnings.simplefilter("ignore")
+    rows = [to_target("caseA", 60)]
+    if not quick:
+        rows.append(to_target("caseC", 600, n_chains=32))
+    budget = {"caseA": 20_000 if quick else 100_000, "caseC": 50_000 if quick else 300_000}
+    for case in ("caseA", "caseC"):
+        pr = _problem(case)
+        lap = find_map(pr.posterior)
+        for kind in ("mh", "emcee", "fast"):
+            rows.append(fixed_budget(case, kind, budget[case], lap))
+    return rows
+
+
+def _print(rows: list[dict]) -> None:
+    print("time to target (fast; wall includes MAP)")
+    print(f"{'case':6} {'conv':5} {'wall s':>7} {'solves':>9} {'min ESS':>8} {'max Rhat':>8}")
+    for r in rows:
+        if "converged" in r:
+            print(f"{r['case']:6} {r['converged']!s:5} {r['wall_s']:7.1f} {r['solves']:9d} "
+                  f"{r['min_ess']:8.0f} {r['max_rhat']:8.3f}  {r['reason'][:90]}")
+    print("\nfixed budget of solves (min ESS over parameters)")
+    print(f"{'case':6} {'sampler':7} {'solves':>8} {'ESS/1000 solves':>16} {'ESS/s':>8} "
+          f"{'acc':>5} {'max Rhat':>8}")
+    for r in rows:
+        if "ess_per_s" in r:
+            print(f"{r['case']:6} {r['sampler']:7} {r['solves']:8d} {r['ess_per_1000_solves']:16.3f}"
+                  f" {r['ess_per_s']:8.2f} {r['acceptance']:5.2f} {r['max_rhat']:8.3f}")
+
+
+if __name__ == "__main__":
+    _print(run(quick="--quick" in sys.argv))

@@ -1,0 +1,98 @@
+"""``pavement-mcmc fit`` and ``pavement-mcmc resume``: sample a case's posterior into a run dir."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+
+import numpy as np
+
+from .common import add_json_flag, emit, parse_assignments
+
+
+def add_parser(sub) -> None:
+    p = sub.add_parser(
+        "fit", help="sample the posterior of a case into a run directory",
+        description="Build the case's model and posterior, sample it until every parameter has "
+                    "ESS >= the target (or the budget runs out), and write RUN/chain.h5, "
+                    "RUN/summary.csv and RUN/summary.md.")
+    p.add_argument("case", help="the case TOML, e.g. runs/caseA.toml")
+    p.add_argument("--out", required=True, help="run directory, e.g. runs/caseA")
+    p.add_argument("--overwrite", action="store_true", help="replace an existing run in --out")
+    p.add_argument("--add", action="append", metavar="EXT", default=[],
+                   help="add a physics extension (repeatable), e.g. --add two_layer")
+    p.add_argument("--set", action="append", metavar="NAME=VALUE", default=[], dest="set_",
+                   help="set a parameter's value, e.g. --set kappa=1.3 (repeatable)")
+    p.add_argument("--sampler", metavar="KIND", help="override sampler.kind: emcee, mh or fast")
+    p.add_argument("--seed", type=int, help="override sampler.seed")
+    p.add_argument("--max-seconds", type=float, help="wall-time budget of the sampling")
+    p.add_argument("--ess", type=float, help="target effective sample size per parameter")
+    p.add_argument("--no-progress", action="store_true", help="no progress bar")
+    add_json_flag(p)
+    p.set_defaults(func=run_fit)
+
+    r = sub.add_parser(
+        "resume", help="continue an interrupted or unconverged run",
+        description="Continue RUN from its last saved block (after Ctrl-C, kill -9 or a spent "
+                    "budget); the chain is the same, bit for bit, as one run straight through. "
+                    "Refused if the case's config or data changed since.")
+    r.add_argument("run", help="run directory, e.g. runs/caseC")
+    r.add_argument("--max-seconds", type=float, help="wall-time budget of this invocation")
+    r.add_argument("--no-progress", action="store_true", help="no progress bar")
+    add_json_flag(r)
+    r.set_defaults(func=run_resume)
+
+
+def _report(args, out) -> int:
+    res = out.result
+    payload = {"run_dir": str(out.run_dir), "converged": res.converged, "reason": res.reason,
+               "n_steps": res.n_steps, "burn_in_rows": res.burn_in, "n_evals": res.n_evals,
+               "elapsed_s": res.elapsed, "acceptance": res.acceptance,
+               "min_ess": float(np.min(res.ess)) if res.ess.size else None,
+               "max_rhat": float(np.max(res.rhat)) if res.rhat.size else None,
+               "table": out.table}
+    from ..runner import format_table
+
+    shown = out.table if len(out.table) <= 12 else out.table[:6] + out.table[-3:]
+    text = "\n".join([
+        format_table(shown)
+        + ("\n(... see summary.md for every parameter)" if len(shown) < len(out.table) else ""),
+        "",
+        f"{'converged' if res.converged else 'NOT converged'}: {res.reason}",
+        f"{res.n_steps} steps, {res.n_evals} solves, {res.elapsed:.1f} s; "
+        f"acceptance {res.acceptance:.2f}; wrote {out.run_dir}/chain.h5, summary.csv, summary.md",
+    ])
+    if not res.converged:
+        text += f"\nto continue: pavement-mcmc resume {out.run_dir}"
+    emit(args, payload, text)
+    return 0 if res.converged else 1
+
+
+def _interrupted(run_dir) -> int:
+    print(f"\ninterrupted: the chain up to the last saved block is in {run_dir}/chain.h5\n"
+          f"to continue: pavement-mcmc resume {run_dir}", file=sys.stderr)
+    return 130
+
+
+def run_fit(args: argparse.Namespace) -> int:
+    from ..runner import fit
+
+    try:
+        out = fit(args.case, args.out, overwrite=args.overwrite, add=args.add,
+                  set_values=parse_assignments(args.set_), sampler=args.sampler, seed=args.seed,
+                  max_seconds=args.max_seconds, ess_target=args.ess,
+                  progress=not (args.no_progress or args.json))
+    except KeyboardInterrupt:
+        return _interrupted(args.out)
+    return _report(args, out)
+
+
+def run_resume(args: argparse.Namespace) -> int:
+    from ..runner import resume
+
+    try:
+        out = resume(args.run, max_seconds=args.max_seconds,
+                     progress=not (args.no_progress or args.json))
+    except KeyboardInterrupt:
+        return _interrupted(args.run)
+    return _report(args, out)

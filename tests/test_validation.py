@@ -1,0 +1,164 @@
+"""Slow validation runs (``make validate``): SBC, coverage on the reference case, fast vs MH.
+
+Numbers are printed (run with ``-s``) for the record.
+"""
+
+from __future__ import annotations
+
+import warnings
+from pathlib import Path
+
+import numpy as np
+import pytest
+from scipy import stats
+
+from pavement_mcmc import diagnostics as dg
+from pavement_mcmc.config import load_case
+from pavement_mcmc.parameters import ParameterSpace
+from pavement_mcmc.physics import HBasis, Model
+from pavement_mcmc.posterior import LogPosterior
+from pavement_mcmc.priors import TruncatedNormal
+from pavement_mcmc.problem import build_problem
+from pavement_mcmc.runner import truth_values
+from pavement_mcmc.samplers import get_sampler
+from pavement_mcmc.samplers.loop import run_sampler
+from pavement_mcmc.solver import Grid
+from pavement_mcmc.storage import MemoryStore
+
+ROOT = Path(__file__).resolve().parents[1]
+pytestmark = pytest.mark.slow
+
+#: the SBC's generative prior = its inference prior (wider than the paper's, see test_sbc)
+SBC_PRIOR = {"kappa": TruncatedNormal(1.5, 0.3), "C": TruncatedNormal(1.5e6, 0.3e6),
+             "h_1": TruncatedNormal(10.0, 3.0)}
+
+
+def _run(post, kind="fast", n_chains=None, seed=0, **kw):
+    s = get_sampler(kind, post, n_chains=n_chains, seed=seed)
+    s.prepare()
+    st = MemoryStore.create(post.space.free, post.blob_names, s.n_chains, {"sampler": kind})
+    res = run_sampler(s, st, **kw)
+    return res, st.read()
+
+
+def _sbc_posterior(meas):
+    from dataclasses import replace
+
+    grid = Grid.build(meas)
+    model = Model(meas, grid, HBasis.pieces(meas.t, [0, meas.t[-1] / 3600]))
+    space = model.parameter_space()
+    space = ParameterSpace([replace(space[n], prior=SBC_PRIOR[n]) for n in space.names])
+    return LogPosterior(model, space)
+
+
+@pytest.mark.parametrize("clean_boundary", [True, False])
+def test_sbc_case_a_twins(clean_boundary):
+    """Simulation-based calibration (Talts et al. 2018) on 100 small twin datasets.
+
+    Generative model = inference model: kappa, C, h drawn from SBC_PRIOR (wider than the paper's
+    2.27 +- 0.11 / 2.10 +- 0.021 MJ, which leave the data little to say), data from the
+    independent fine-grid simulator (pavement_mcmc.synthetic, 12 h, linear forcing, no emission
+    and no forcing noise so the inversion model is well specified) with sigma = 0.25 degC noise.
+    h is ONE constant piece: the simulator's h(t) is a smooth spline, so a step function (Case
+    A's three pieces) cannot be the truth of a well-specified twin. Ranks of the truth among
+    99 thinned posterior draws must be uniform (chi-square, 10 bins, p > 0.001 per parameter).
+
+    ``clean_boundary=True`` replaces the 5 cm (Dirichlet) column and the t = 0 row (initial
+    profile) by the simulator's noise-free values: the likelihood treats both as exact, so with
+    noise on them the model is misspecified (errors in variables) and the posterior is too
+    narrow. That case is marked xfail: it measures the paper's method, not the sampler.
+    """
+    if not clean_boundary:
+        pytest.xfail("noisy boundary/initial data: known over-confidence of the paper's method")
+    from pavement_mcmc.synthetic import SyntheticSpec, simulate, to_measurements
+
+    warnings.simplefilter("ignore")
+    rng = np.random.default_rng(2024)
+    n_sets, L = 100, 99
+    ranks = {n: [] for n in SBC_PRIOR}
+    for i in range(n_sets):
+        true = {n: float(p.sample(rng, 1)[0]) for n, p in SBC_PRIOR.items()}
+        spec = SyntheticSpec(kappa=true["kappa"], C=true["C"], sigma=0.25, hours=12,
+                             h_knots=(true["h_1"], true["h_1"]), seed=1000 + i, emission=False,
+                             forcing="linear", forcing_noise=False, spinup_hours=24)
+        cols, truth = simulate(spec)
+        if clean_boundary:  # noise-free bottom boundary and initial profile (see docstring)
+            labels = [k for k in cols if k.startswith("T_") and k.endswith("cm")]
+            for j, lab in enumerate(labels):
+                cols[lab] = np.array(cols[lab], float)
+                cols[lab][0] = truth.T_clean[0, j]
+            cols[labels[-1]] = np.array(truth.T_clean[:, len(labels) - 1], float)
+        post = _sbc_posterior(to_measurements(cols, sigma=0.25))
+        res, data = _run(post, n_chains=32, seed=i, ess_target=400, max_steps=3000,
+                         min_tau_lengths=20, rhat_max=1.02)
+        kept = data.chain[res.burn_in:].reshape(-1, post.ndim)
+        draws = kept[np.linspace(0, kept.shape[0] - 1, L).astype(int)]
+        for j, n in enumerate(post.space.free):
+            ranks[n].append(int(np.sum(draws[:, j] < true[n])))
+    for n, r in ranks.items():
+        counts = np.bincount(np.asarray(r) * 10 // (L + 1), minlength=10)
+        p = stats.chisquare(counts).pvalue
+        print(f"SBC {n}: rank counts {counts.tolist()}, chi-square p = {p:.3f}")
+        assert p > 1e-3, (n, counts)
+
+
+def _case(name, overrides=None):
+    return build_problem(load_case(ROOT / "runs" / f"{name}.toml", overrides))
+
+
+def test_reference_case_c_coverage_with_wide_priors():
+    """Case C (one h per interval, the correctly specified model of the reference data) with
+    kappa and C priors widened to 1.5 +- 0.5 and 1.5e6 +- 0.5e6: the 95 % intervals contain the
+    true kappa and C and >= 90 % of the true h."""
+    pr = _case("caseC", {"parameters": {
+        "kappa": {"prior": {"dist": "truncnormal", "mean": 1.5, "sd": 0.5}},
+        "C": {"prior": {"dist": "truncnormal", "mean": 1.5e6, "sd": 0.5e6}}}})
+    res, data = _run(pr.posterior, n_chains=32, seed=1, ess_target=1000, max_steps=200_000,
+                     max_seconds=900)
+    kept = data.chain[res.burn_in:].reshape(-1, pr.posterior.ndim)
+    lo, hi = np.percentile(kept, [2.5, 97.5], axis=0)
+    truth = truth_values(pr)
+    names = pr.space.free
+    inside = {n: bool(lo[j] <= truth[n] <= hi[j]) for j, n in enumerate(names) if n in truth}
+    h_cov = np.mean([v for n, v in inside.items() if n.startswith("h_")])
+    for n in ("kappa", "C"):
+        j = names.index(n)
+        print(f"Case C wide priors: {n} 95% [{lo[j]:.4g}, {hi[j]:.4g}] truth {truth[n]:.4g}")
+    print(f"Case C wide priors: h coverage {h_cov:.2%}; converged={res.converged}: {res.reason}")
+    assert inside["kappa"] and inside["C"] and h_cov >= 0.9
+
+
+def test_paper_priors_pull_case_a_away_from_truth():
+    """Measured, not hidden: with the paper's tight priors (kappa 2.27 +- 0.11, C 2.10 +- 0.021
+    MJ) and three h pieces, Case A's posterior excludes the true kappa = 1.31 and C = 0.99 MJ."""
+    pr = _case("caseA")
+    res, data = _run(pr.posterior, seed=1, ess_target=1000, max_steps=20_000)
+    assert res.converged, res.reason
+    kept = data.chain[res.burn_in:].reshape(-1, pr.posterior.ndim)
+    truth = truth_values(pr)
+    for j, n in enumerate(["kappa", "C"]):
+        m, s = kept[:, j].mean(), kept[:, j].std()
+        print(f"Case A paper priors: {n} = {m:.4g} +- {s:.3g} (truth {truth[n]:.4g}, "
+              f"{(m - truth[n]) / s:+.1f} sd)")
+    lo, hi = np.percentile(kept[:, :2], [2.5, 97.5], axis=0)
+    assert not (lo[0] <= truth["kappa"] <= hi[0])  # documents the bias (misspecified h + prior)
+
+
+def test_fast_agrees_with_long_mh_case_a():
+    """fast and a long plain MH run agree on Case A's means and sds within Monte Carlo error."""
+    pr = _case("caseA")
+    rf, df = _run(pr.posterior, "fast", seed=3, ess_target=2000, max_steps=50_000)
+    rm, dm = _run(pr.posterior, "mh", n_chains=32, seed=4, ess_target=2000, max_steps=60_000,
+                  max_seconds=600)
+    print(f"fast: {rf.reason}\nmh: {rm.reason}")
+    kf, km = df.chain[rf.burn_in:], dm.chain[rm.burn_in:]
+    mf, mm = kf.reshape(-1, 5).mean(0), km.reshape(-1, 5).mean(0)
+    sf, sm = kf.reshape(-1, 5).std(0), km.reshape(-1, 5).std(0)
+    se = np.sqrt(dg.mcse(kf) ** 2 + dg.mcse(km) ** 2)
+    for j, n in enumerate(pr.space.free):
+        print(f"{n}: fast {mf[j]:.5g} +- {sf[j]:.3g}  mh {mm[j]:.5g} +- {sm[j]:.3g}  "
+              f"z = {(mf[j] - mm[j]) / se[j]:+.2f}")
+    assert np.all(np.abs(mf - mm) < 4 * se)
+    # sd of an sd estimate ~ sd / sqrt(2 ESS): allow 4 of those
+    tol = 4 * np.sqrt(1 / (2 * dg.ess(kf)) + 1 / (2 * dg.ess(km)))
+    assert np.all(np.abs(sf / sm - 1) < tol)
