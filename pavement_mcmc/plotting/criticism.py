@@ -1,0 +1,118 @@
+"""Figures of the model criticism: residual depth x time map, residual correlations, the
+missing-effect ranking and the side-by-side residuals of compared runs.
+
+Every function takes result objects of :mod:`pavement_mcmc.criticism` (plain attributes, no
+recomputation) plus an optional ``fig`` and returns the :class:`~matplotlib.figure.Figure`.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from matplotlib.colors import TwoSlopeNorm
+from matplotlib.figure import Figure
+
+from ._base import SENSOR_COLOURS, new_figure
+
+
+def plot_residual_map(report, fig: Figure | None = None, title: str = "") -> Figure:
+    """Residuals (predicted - measured) as a depth x time map, above the per-sensor series.
+
+    Parameters
+    ----------
+    report : a :class:`~pavement_mcmc.criticism.residuals.ResidualReport`.
+    fig : figure to draw into (cleared), default a new one.
+    title : optional title.
+    """
+    fig = new_figure(fig, (9.0, 6.0))
+    ax1, ax2, ax3 = fig.subplots(3, 1, sharex=False, height_ratios=[2.2, 2.0, 1.6])
+    th = report.t / 3600.0
+    r = report.residuals
+    lim = max(float(np.max(np.abs(r))), 1e-6)
+    z = report.depths * 100
+    # cell edges in depth for pcolormesh
+    ze = (
+        np.concatenate(([z[0] - 0.5], 0.5 * (z[1:] + z[:-1]), [z[-1] + 0.5]))
+        if z.size > 1
+        else np.array([z[0] - 0.5, z[0] + 0.5])
+    )
+    te = np.concatenate(([th[0]], 0.5 * (th[1:] + th[:-1]), [th[-1]]))
+    m = ax1.pcolormesh(te, ze, r.T, cmap="RdBu_r", norm=TwoSlopeNorm(0.0, -lim, lim))
+    ax1.invert_yaxis()
+    ax1.set_ylabel("depth (cm)")
+    fig.colorbar(m, ax=ax1, label="pred − meas (°C)")
+    ax1.set_title(
+        title or f"residuals: RMSE {report.rmse:.3f} °C = {report.rmse_sigma:.2f} σ, lag-1 {report.rho:.2f}"
+    )
+    for s, lab in enumerate(report.labels):
+        ax2.plot(th, r[:, s], lw=0.9, color=SENSOR_COLOURS[s % len(SENSOR_COLOURS)], label=lab)
+    ax2.axhspan(-report.sigma, report.sigma, color="0.85", zorder=0, label="±σ")
+    ax2.set_ylabel("pred − meas (°C)")
+    ax2.set_xlabel("time (h)")
+    ax2.legend(ncol=len(report.labels) + 1, fontsize=7, loc="upper left")
+    rm = [s.rmse for s in report.sensors]
+    bi = [s.bias for s in report.sensors]
+    ax3.plot(rm, z, "o-", label="RMSE")
+    ax3.plot(bi, z, "s--", label="mean")
+    ax3.axvline(report.sigma, color="0.5", lw=0.8, ls=":", label="σ")
+    ax3.axvline(0, color="0.3", lw=0.5)
+    ax3.invert_yaxis()
+    ax3.set_xlabel("residual (°C)")
+    ax3.set_ylabel("depth (cm)")
+    ax3.legend(fontsize=7)
+    return fig
+
+
+def plot_residual_correlations(report, fig: Figure | None = None) -> Figure:
+    """z-scores of the correlation of each sensor's residuals with forcing and derived signals
+    (Bartlett-corrected for autocorrelation; |z| > 3 is marked)."""
+    fig = new_figure(fig, (7.5, 3.2))
+    ax = fig.subplots()
+    names = list(report.sensors[0].correlations)
+    Z = np.array([[s.correlations[n][1] for n in names] for s in report.sensors])
+    lim = max(3.0, float(np.max(np.abs(Z))))
+    m = ax.imshow(Z, cmap="PuOr_r", vmin=-lim, vmax=lim, aspect="auto")
+    ax.set_xticks(range(len(names)), names, rotation=30, ha="right", fontsize=8)
+    ax.set_yticks(range(len(report.labels)), report.labels)
+    for i in range(Z.shape[0]):
+        for j in range(Z.shape[1]):
+            if abs(Z[i, j]) >= 3:
+                ax.text(j, i, f"{Z[i, j]:.0f}", ha="center", va="center", fontsize=7)
+    fig.colorbar(m, ax=ax, label="correlation z-score")
+    ax.set_title("residuals vs signals")
+    return fig
+
+
+def plot_ranking(ranking, fig: Figure | None = None) -> Figure:
+    """Penalised evidence of each candidate (bars) with the detection threshold."""
+    from ..criticism.ranking import THRESHOLD
+
+    fig = new_figure(fig, (7.0, 0.45 * len(ranking.entries) + 1.2))
+    ax = fig.subplots()
+    names = [e.name for e in ranking.entries][::-1]
+    sc = np.array([e.score for e in ranking.entries][::-1])
+    shown = np.sign(sc) * np.log10(1 + np.abs(sc))
+    ax.barh(names, shown, color=["C3" if s > THRESHOLD else "0.6" for s in sc])
+    ax.axvline(np.log10(1 + THRESHOLD), color="k", ls="--", lw=0.8, label=f"threshold {THRESHOLD:g}")
+    ax.set_xlabel("sign(S) log10(1 + |S|), S = penalised misfit drop")
+    ax.legend(fontsize=7, loc="lower right")
+    ax.set_title("which effect is missing?")
+    return fig
+
+
+def plot_compare(ledger, fig: Figure | None = None) -> Figure:
+    """Residuals of each compared run side by side (same scale), per sensor, with the RMSE."""
+    rows = ledger.rows
+    fig = new_figure(fig, (3.6 * len(rows) + 0.5, 3.6))
+    axes = np.atleast_1d(fig.subplots(1, len(rows), sharey=True))
+    lim = max(float(np.max(np.abs(r.residuals))) for r in rows)
+    for ax, row in zip(axes, rows, strict=True):
+        th = row.t / 3600.0
+        for s, lab in enumerate(row.labels):
+            ax.plot(th, row.residuals[:, s], lw=0.8, label=lab, color=SENSOR_COLOURS[s % len(SENSOR_COLOURS)])
+        ax.set_ylim(-1.05 * lim, 1.05 * lim)
+        ax.set_title(f"{row.label}\nRMSE {row.rmse:.3f} °C, lag-1 {row.lag1:.2f}", fontsize=9)
+        ax.set_xlabel("time (h)")
+        ax.axhline(0, color="k", lw=0.5)
+    axes[0].set_ylabel("pred − meas (°C)")
+    axes[-1].legend(fontsize=7)
+    return fig
