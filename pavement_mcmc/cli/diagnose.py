@@ -1,0 +1,150 @@
+"""``pavement-mcmc diagnose RUN [--json]``: where the model fails and which effect is missing.
+
+RUN is a stored run directory (its posterior mean is used; nothing is re-sampled) or a case
+TOML (the model is fitted by MAP first, useful before any sampling).
+"""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+from .common import add_json_flag, emit
+
+HELP = "residual diagnosis and a ranked list of the physical effects the model may be missing"
+
+
+def add_parser(sub) -> None:
+    p = sub.add_parser(
+        "diagnose",
+        help=HELP,
+        description=HELP + ". Per sensor: RMSE and bias against sigma, lag-1 autocorrelation and "
+        "Ljung-Box test, 24 h amplitude and phase errors, correlations with forcing; then every "
+        "catalogue extension not in the model (and a finer h(t)) is added in a quick MAP refit and "
+        "scored by its penalised misfit drop (autocorrelation-aware BIC).",
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+        epilog="examples:\n  pavement-mcmc diagnose runs/hidden\n"
+        "  pavement-mcmc diagnose runs/hidden.toml --json",
+    )
+    p.add_argument("run", help="run directory (posterior mean) or case TOML (MAP fit)")
+    p.add_argument("--no-rank", action="store_true", help="residual statistics only")
+    p.add_argument("--only", nargs="+", metavar="EXT", help="candidates to try (default: all)")
+    p.add_argument("--median", action="store_true", help="posterior median instead of mean")
+    p.add_argument(
+        "--figures",
+        metavar="DIR",
+        help="write the figures here (default: the run directory; none for a TOML)",
+    )
+    add_json_flag(p)
+    p.set_defaults(func=run)
+
+
+def load_point(path: str, statistic: str = "mean"):
+    """``(problem, values, how, label)`` from a run directory or a case TOML.
+
+    ``CASE.toml+ext1+ext2`` adds extensions to the case (MAP fit only; for a sampled run use
+    ``pavement-mcmc fit CASE.toml --add ext1 --out DIR``).
+    """
+    base, *added = str(path).split("+")
+    pth = Path(base)
+    if pth.suffix == ".toml":
+        from ..config import load_case
+        from ..criticism import refit
+        from ..problem import build_problem
+
+        cfg = load_case(pth)
+        exts = list(cfg.model.get("extensions", [])) + added
+        problem = build_problem(cfg, extensions=exts)
+        label = cfg.name + "".join(f"+{a}" for a in added)
+        return problem, refit(problem).values(), "MAP fit", label
+    from ..criticism import point_estimate
+
+    try:
+        problem, values = point_estimate(pth, statistic)
+    except ImportError:  # runner not available: read the run through the report's loader
+        import numpy as np
+
+        from ..report import load_view
+
+        view = load_view(pth)
+        problem = view.problem
+        est = np.median(view.flat, axis=0) if statistic == "median" else view.flat.mean(axis=0)
+        values = {k: float(v[0]) for k, v in problem.space.values().items()}
+        values.update({n: float(v) for n, v in zip(view.names, est, strict=True)})
+    return problem, values, f"posterior {statistic}", pth.name
+
+
+def _text(dx, how: str, label: str) -> str:
+    rep = dx.residuals
+    lines = [
+        f"{label}: {dx.problem.model.describe()}; point estimate: {how}",
+        f"overall RMSE {rep.rmse:.3f} °C = {rep.rmse_sigma:.2f} σ (σ = {rep.sigma:g} °C; the "
+        f"misfit floor of a correct model is about 1.1-1.2 σ), lag-1 {rep.rho:.2f}",
+        "",
+        f"{'sensor':<8}{'RMSE':>7}{'/σ':>6}{'mean':>8}{'lag-1':>7}{'LB p':>9}"
+        f"{'amp ratio':>10}{'phase h':>9}  strongest correlation",
+    ]
+    for s in rep.sensors:
+        best = max(s.correlations.items(), key=lambda kv: abs(kv[1][1]))
+        lines.append(
+            f"{s.label:<8}{s.rmse:7.3f}{s.rmse_sigma:6.2f}{s.bias:+8.3f}{s.lag1:7.2f}"
+            f"{s.ljung_box_p:9.1e}{s.amp_ratio:10.3f}{s.phase_error_h:+9.2f}  "
+            f"{best[0]} r={best[1][0]:+.2f} z={best[1][1]:+.1f}"
+        )
+    rk = dx.ranking
+    if rk is None:
+        return "\n".join(lines)
+    lines += [
+        "",
+        "Candidates (score S = penalised misfit drop, autocorrelation-aware BIC; S > 10: detected):",
+        f"  {'#':<3}{'candidate':<26}{'S':>8}{'Δχ²':>9}{'Δprior':>8}{'+params':>8}"
+        f"{'RMSE':>7}{'/σ':>6}  {'':<4}",
+    ]
+    for i, e in enumerate(rk.entries, 1):
+        mark = "*" if e.detected else " "
+        lines.append(
+            f"{mark} {i:<3}{e.name:<26}{e.score:8.1f}{e.delta_chi2:9.1f}"
+            f"{e.delta_prior:8.1f}{e.added_params:8.2f}{e.rmse:7.3f}{e.rmse_sigma:6.2f}"
+            + (f"  LOSO lpd {e.loso_lpd:+.3f}" if e.loso_lpd is not None else "")
+        )
+        if i <= 3 or e.detected:
+            for ev in e.evidence:
+                lines.append(f"        - {ev}")
+            if e.values:
+                lines.append("        fitted: " + ", ".join(f"{k}={v:.4g}" for k, v in e.values.items()))
+    for k, why in rk.skipped.items():
+        lines.append(f"  (not tried: {k}: {why})")
+    lines += ["", rk.verdict]
+    if rk.best is not None and rk.best.name != "finer_h":
+        lines.append(
+            f"Next: pavement-mcmc fit <case.toml> --add {rk.best.name} --out <new run>, "
+            "then pavement-mcmc compare <this run> <new run>"
+        )
+    return "\n".join(lines)
+
+
+def run(args) -> int:
+    from ..criticism import diagnose
+
+    problem, values, how, label = load_point(args.run, "median" if args.median else "mean")
+    dx = diagnose(problem, values, rank=not args.no_rank, candidates=args.only)
+    figdir = Path(args.figures) if args.figures else (Path(args.run) if Path(args.run).is_dir() else None)
+    figs = []
+    if figdir is not None:
+        from ..plotting.criticism import plot_ranking, plot_residual_correlations, plot_residual_map
+
+        figdir.mkdir(parents=True, exist_ok=True)
+        out = {
+            "residual_map.png": plot_residual_map(dx.residuals),
+            "residual_correlations.png": plot_residual_correlations(dx.residuals),
+        }
+        if dx.ranking is not None:
+            out["missing_effects.png"] = plot_ranking(dx.ranking)
+        for name, fig in out.items():
+            fig.savefig(figdir / name, dpi=110)
+            figs.append(str(figdir / name))
+    payload = dx.to_dict()
+    payload["figures"] = figs
+    text = _text(dx, how, label) + ("\nfigures: " + ", ".join(figs) if figs else "")
+    emit(args, payload, text)
+    return 0

@@ -1,0 +1,46 @@
+"""Model criticism: where the model fails, which effect is missing, and run comparison.
+
+>>> from pavement_mcmc.criticism import diagnose
+>>> dx = diagnose(problem, values)          # values: point estimate by parameter name
+>>> print(dx.ranking.verdict)
+
+Public API
+----------
+- :func:`diagnose` (problem, point estimate) -> :class:`Diagnosis` (residual report + ranking);
+- :func:`~.residuals.analyse` / :func:`~.residuals.analyse_point` -> :class:`~.residuals.ResidualReport`;
+- :func:`~.ranking.rank_missing_effects` -> :class:`~.ranking.Ranking`;
+- :func:`~.ledger.ledger` -> :class:`~.ledger.Ledger` (compare runs);
+- :func:`~.holdout.leave_one_sensor_out` -> :class:`~.holdout.HoldOut`;
+- :func:`~.fitting.refit` -> :class:`~.fitting.Fit` (quick MAP refit);
+- :func:`point_estimate` (run directory -> problem, posterior mean).
+"""
+
+from __future__ import annotations
+
+from .diagnose import Diagnosis, diagnose, point_estimate
+from .fitting import Fit, refit
+from .holdout import HoldOut, leave_one_sensor_out
+from .ledger import Ledger, ledger
+from .ranking import Entry, Ranking, finer_h_spec, rank_missing_effects
+from .residuals import ResidualReport, analyse, analyse_point, noise_like, plain_signals
+
+__all__ = [
+    "Diagnosis",
+    "Entry",
+    "Fit",
+    "HoldOut",
+    "Ledger",
+    "Ranking",
+    "ResidualReport",
+    "analyse",
+    "analyse_point",
+    "diagnose",
+    "finer_h_spec",
+    "leave_one_sensor_out",
+    "ledger",
+    "noise_like",
+    "plain_signals",
+    "point_estimate",
+    "rank_missing_effects",
+    "refit",
+]

@@ -1,0 +1,132 @@
+"""Detection matrix: twin data with one hidden effect -> ``diagnose`` ranks it first, refitting
+with it brings the RMSE within 10 % of the true model at the true parameters; without a hidden
+effect ``diagnose`` claims none.
+
+Data: the independent simulator (:mod:`pavement_mcmc.synthetic`), sigma = 0.2 degC, realistic
+default strengths (and 1.5x / 0.7x variations in the slow matrix). Model: h(t) in 28 pieces of
+1 h (flexible enough for the smooth true h), kappa and C priors +-5 % centred 3 % off the truth.
+``radiation_factor`` is exactly confounded with a scale of kappa, C and h: it is left out of the
+matrix (see the ranking's module documentation).
+"""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from pavement_mcmc.config import load_case
+from pavement_mcmc.criticism import diagnose, refit
+from pavement_mcmc.problem import build_problem
+from pavement_mcmc.synthetic import SyntheticSpec, default_effect, write_case
+
+CASE = """
+[data]
+csv = "measurements.csv"
+truth = "truth.json"
+sigma = 0.2
+[model]
+h = {{ kind = "uniform", n = 28 }}
+[parameters.kappa]
+prior = {{ dist = "truncnormal", mean = {kappa}, sd = 0.07 }}
+[parameters.C]
+prior = {{ dist = "truncnormal", mean = {C}, sd = 0.05e6 }}
+"""
+
+EFFECTS = [
+    "two_layer",
+    "sensor_depth",
+    "sensor_bias",
+    "wind_convection",
+    "evaporation",
+    "conductivity_temperature",
+]
+
+
+def scaled(effect: str, strength: float) -> dict:
+    """The default effect parameters (catalogue names) scaled by ``strength`` from their null."""
+    p = default_effect(effect, 1.31, 0.99e6)
+    if effect == "two_layer":
+        return {"kappa2": 1.31 * (1 - 0.4 * strength), "C2": 0.99e6 * (1 + 0.3 * strength)}
+    if effect in ("sensor_depth", "sensor_bias", "evaporation", "conductivity_temperature"):
+        keep = {"evap_tau"}
+        return {k: (v if k in keep else strength * v) for k, v in p.items()}
+    if effect == "wind_convection":
+        return {"h_a": 4.0, "h_b": 3.0 * strength}
+    return {"rad_factor": 1 - 0.15 * strength}
+
+
+def make_case(tmp_path, effect: str | None, seed: int, strength: float = 1.0):
+    d = tmp_path / f"{effect}_{seed}_{strength}"
+    effects = {} if effect is None else {effect: scaled(effect, strength)}
+    write_case(SyntheticSpec(seed=seed, sigma=0.2, effects=effects), d)
+    (d / "case.toml").write_text(CASE.format(kappa=1.35, C=1.02e6))
+    return load_case(d / "case.toml")
+
+
+def true_rmse(cfg, effect: str | None) -> float:
+    """RMSE of the true model at the true parameters (true h per interval) on the data."""
+    truth = json.loads(cfg.truth_path.read_text())
+    exts = [] if effect is None else [effect]
+    pb = build_problem(cfg, extensions=exts, h_spec={"kind": "per_interval", "smooth": False})
+    vals = {k: float(v[0]) for k, v in pb.space.values().items()}
+    vals.update(kappa=truth["kappa"], C=truth["C"])
+    h = np.asarray(truth["h_true_obs"])
+    if not pb.model.replaces_h:
+        vals.update(zip(pb.model.h_basis.names, 0.5 * (h[1:] + h[:-1]), strict=True))
+    if effect is not None:
+        vals.update(truth["effects"][effect])
+    p = {k: np.array([v]) for k, v in vals.items()}
+    r = pb.model.predict(p)[0, 1:] - pb.meas.T_obs[1:]
+    return float(np.sqrt(np.mean(r**2)))
+
+
+def check(tmp_path, effect: str | None, seed: int, strength: float = 1.0) -> dict:
+    cfg = make_case(tmp_path, effect, seed, strength)
+    problem = build_problem(cfg)
+    start = refit(problem).values()
+    dx = diagnose(problem, start)
+    rk = dx.ranking
+    out = {
+        "effect": effect,
+        "seed": seed,
+        "strength": strength,
+        "found": None if rk.best is None else rk.best.name,
+        "verdict": rk.verdict,
+    }
+    if effect is not None:
+        entry = next(e for e in rk.entries if e.name == effect)
+        out["rmse_refit"] = entry.rmse
+        out["rmse_true"] = true_rmse(cfg, effect)
+    return out
+
+
+@pytest.mark.parametrize("effect", [None, "two_layer"])
+def test_detects_hidden_effect_fast(tmp_path, effect):
+    res = check(tmp_path, effect, seed=1)
+    assert res["found"] == effect, res["verdict"]
+    if effect is not None:
+        assert res["rmse_refit"] <= 1.10 * res["rmse_true"], res
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("seed", [2, 3, 4])
+@pytest.mark.parametrize("effect", [None, *EFFECTS])
+@pytest.mark.parametrize("strength", [1.0, 0.7, 1.5])
+def test_detection_matrix(tmp_path, request, effect, seed, strength):
+    if effect is None and strength != 1.0:
+        pytest.skip("strength does not apply without an effect")
+    if effect == "conductivity_temperature" and strength <= 1.0:
+        request.applymarker(
+            pytest.mark.xfail(
+                reason="kappa(T) at beta >= -0.004 /K is absorbed by h(t) in 1 h pieces and kappa "
+                "(measured hit rate 0/2 at 0.7x and 1x, 1/1 at 1.5x)",
+                strict=False,
+            )
+        )
+    res = check(tmp_path, effect, seed, strength)
+    print("MATRIX", json.dumps({k: v for k, v in res.items() if k != "verdict"}))
+    assert res["found"] == effect, res["verdict"]
+    if effect is not None:
+        assert res["rmse_refit"] <= 1.10 * res["rmse_true"], res
