@@ -12,16 +12,15 @@ inflated, CPU time much less so. Times are medians of several repeats after a wa
 
 from __future__ import annotations
 
-import csv
 import os
 import time
-from datetime import datetime
 from pathlib import Path
 
 os.environ.setdefault("OMP_NUM_THREADS", "1")  # the solver uses no BLAS; keep NumPy's single
 
 import numpy as np  # noqa: E402
 
+from pavement_mcmc.data import read_csv_case
 from pavement_mcmc.measurements import Measurements  # noqa: E402
 from pavement_mcmc.solver import (  # noqa: E402
     DEFAULT_DT,
@@ -40,28 +39,7 @@ DFF_DTS = (60.0, 30.0, 20.0, 15.0, 10.0, 6.0, 4.0, 3.0, 2.0, 1.0)
 
 def load_reference(path: Path = CASE) -> Measurements:
     """The shipped reference case as Measurements (0-4 cm observed, 5 cm bottom, sigma 0.25)."""
-    with open(path, newline="") as fh:
-        rows = list(csv.DictReader(fh))
-    stamps = [datetime.fromisoformat(r["time"].replace("Z", "+00:00")) for r in rows]
-    t = np.array([(s - stamps[0]).total_seconds() for s in stamps])
-
-    def col(name: str) -> np.ndarray:
-        return np.array([float(r[name]) for r in rows])
-
-    return Measurements(
-        t=t,
-        time0=rows[0]["time"],
-        T_air=col("T_air"),
-        q_net=col("q_net"),
-        wind=col("wind"),
-        rain=col("rain"),
-        depths=np.array([0.0, 0.01, 0.02, 0.03, 0.04]),
-        T_obs=np.stack([col(f"T_{d}cm") for d in range(5)], axis=1),
-        bottom_depth=0.05,
-        T_bottom=col("T_5cm"),
-        sigma=0.25,
-        source=str(path),
-    )
+    return read_csv_case(path, sigma=0.25)
 
 
 def _coeffs(meas: Measurements, grid: Grid, n_sets: int, seed: int = 0) -> Coefficients:

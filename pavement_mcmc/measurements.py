@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import hashlib
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -61,6 +61,21 @@ class Measurements:
         z = np.append(self.depths, self.bottom_depth)
         T = np.append(self.T_obs[0], self.T_bottom[0])
         return np.interp(x, z, T)
+
+    def select_rows(self, rows) -> Measurements:
+        """The same case restricted to observation ``rows`` (must keep row 0, the initial state)."""
+        rows = np.asarray(rows)
+        if rows.size < 2 or rows[0] != 0 or np.any(np.diff(rows) <= 0):
+            raise ValueError("select_rows needs increasing row indices starting at 0")
+
+        def pick(a):
+            return None if a is None else a[rows]
+
+        return replace(
+            self, t=self.t[rows], T_air=self.T_air[rows], q_net=self.q_net[rows],
+            wind=pick(self.wind), rain=pick(self.rain), T_obs=self.T_obs[rows],
+            T_bottom=self.T_bottom[rows],
+        )
 
     def data_hash(self) -> str:
         """SHA-256 over the numerical content, so a stored run can refuse changed data."""

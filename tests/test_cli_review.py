@@ -15,20 +15,9 @@ REPO = Path(__file__).resolve().parents[1]
 CASE = str(REPO / "runs" / "caseA.toml")
 
 
-def tiny_run(tmp_path_factory) -> Path:
-    """A 300-step, 12-walker emcee run of Case A (made once per session, ~2 s)."""
-    root = tmp_path_factory.getbasetemp() / "tiny_caseA"
-    if not (root / "result.json").exists():
-        from pavement_mcmc.runner import fit
-
-        fit(REPO / "runs" / "caseA.toml", root, overwrite=True, seed=3,
-            overrides={"sampler": {"kind": "emcee", "max_steps": 300, "n_walkers": 12}})
-    return root
-
-
 @pytest.fixture(scope="module")
-def run_dir(tmp_path_factory):
-    return str(tiny_run(tmp_path_factory))
+def run_dir(tiny_run):
+    return str(tiny_run)
 
 
 def test_simulate(tmp_path, capsys):

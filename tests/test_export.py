@@ -13,26 +13,15 @@ from pavement_mcmc import export, report
 REPO = Path(__file__).resolve().parents[1]
 
 
-def tiny_run(tmp_path_factory) -> Path:
-    """A 300-step, 12-walker emcee run of Case A (made once per session, ~2 s)."""
-    root = tmp_path_factory.getbasetemp() / "tiny_caseA"
-    if not (root / "result.json").exists():
-        from pavement_mcmc.runner import fit
-
-        fit(REPO / "runs" / "caseA.toml", root, overwrite=True, seed=3,
-            overrides={"sampler": {"kind": "emcee", "max_steps": 300, "n_walkers": 12}})
-    return root
-
-
 def test_missing_arviz_gives_a_clear_error(monkeypatch):
     monkeypatch.setitem(sys.modules, "arviz", None)
     with pytest.raises(ImportError, match=r"pavement_mcmc\[arviz\]"):
         export.import_arviz()
 
 
-def test_export_round_trip(tmp_path_factory, tmp_path):
+def test_export_round_trip(tiny_run, tmp_path):
     az = pytest.importorskip("arviz")
-    view = report.load_view(tiny_run(tmp_path_factory))
+    view = report.load_view(tiny_run)
     out = export.export_netcdf(view, tmp_path / "run.nc", thin=5)
     data = az.from_netcdf(str(out))
     groups = set(data.groups() if callable(getattr(data, "groups", None)) else data.children)

@@ -6,13 +6,12 @@ the shipped reference case, and the compiled kernels against the independent Num
 
 from __future__ import annotations
 
-import csv
-from datetime import datetime
 from pathlib import Path
 
 import numpy as np
 import pytest
 
+from pavement_mcmc.data import read_csv_case
 from pavement_mcmc.measurements import Measurements
 from pavement_mcmc.solver import (
     SCHEMES,
@@ -28,28 +27,8 @@ KAPPA, C_VOL, H = 1.31, 0.99e6, 10.0  # the reference case's truth (paper Case C
 
 
 def _read_case(drop: tuple[int, ...] = ()) -> Measurements:
-    with open(CASE, newline="") as fh:
-        rows = [r for i, r in enumerate(csv.DictReader(fh)) if i not in drop]
-    stamps = [datetime.fromisoformat(r["time"].replace("Z", "+00:00")) for r in rows]
-    t = np.array([(s - stamps[0]).total_seconds() for s in stamps])
-
-    def col(name: str) -> np.ndarray:
-        return np.array([float(r[name]) for r in rows])
-
-    return Measurements(
-        t=t,
-        time0=rows[0]["time"],
-        T_air=col("T_air"),
-        q_net=col("q_net"),
-        wind=col("wind"),
-        rain=col("rain"),
-        depths=np.array([0.0, 0.01, 0.02, 0.03, 0.04]),
-        T_obs=np.stack([col(f"T_{d}cm") for d in range(5)], axis=1),
-        bottom_depth=0.05,
-        T_bottom=col("T_5cm"),
-        sigma=0.25,
-        source=str(CASE),
-    )
+    meas = read_csv_case(CASE, sigma=0.25)
+    return meas.select_rows(np.setdiff1d(np.arange(meas.n_obs), drop)) if drop else meas
 
 
 @pytest.fixture(scope="module")

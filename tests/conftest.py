@@ -1,0 +1,20 @@
+"""Shared fixtures: the repository paths and one tiny stored run reused by the review tests."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+REPO = Path(__file__).resolve().parents[1]
+
+
+@pytest.fixture(scope="session")
+def tiny_run(tmp_path_factory) -> Path:
+    """A 300-step, 12-walker emcee run of Case A, made once per session (~2 s)."""
+    from pavement_mcmc.runner import fit
+
+    root = tmp_path_factory.getbasetemp() / "tiny_caseA"
+    fit(REPO / "runs" / "caseA.toml", root, overwrite=True, seed=3,
+        overrides={"sampler": {"kind": "emcee", "max_steps": 300, "n_walkers": 12}})
+    return root
