@@ -1,57 +1,39 @@
-"""The README's user-extension example, run exactly as shown in docs/tutorial.md."""
+"""The README's user-extension example, extracted from README.md and run as written."""
 
 from __future__ import annotations
 
+import re
 import sys
 import types
+from pathlib import Path
 
 import numpy as np
 import pytest
 
 from pavement_mcmc.config import load_case
-
-# --- the example of docs/tutorial.md, verbatim ------------------------------------------------
 from pavement_mcmc.parameters import Parameter
-from pavement_mcmc.physics import Extension, extension_names, get_extension
-from pavement_mcmc.priors import Normal
+from pavement_mcmc.physics import extension_names, get_extension
 from pavement_mcmc.problem import build_problem
 
-
-class ShadedSurface(Extension):
-    """A tree shades the pavement: the ground gets only part of the net radiation by day."""
-
-    name = "shaded_surface"
-    hint = "daytime surface too warm at every depth, nights fine"
-    signals = ("corr:q_net", "amplitude")
-
-    def parameters(self, meas):
-        return [
-            Parameter(
-                "shade",
-                0.0,
-                0.0,
-                0.9,
-                prior=Normal(0.0, 0.3),
-                unit="-",
-                description="fraction of the daytime net radiation blocked",
-            )
-        ]
-
-    def null_values(self, meas):
-        return {"shade": 0.0}
-
-    def surface(self, coeffs, p, model):
-        q = model.meas.q_net
-        day = np.clip(q, 0.0, None)  # only the positive (daytime) part
-        coeffs.q -= p["shade"][:, None] * day[None, :]
+README = Path(__file__).resolve().parents[1] / "README.md"
 
 
-# ------------------------------------------------------------------------------------------------
+def _readme_example() -> types.ModuleType:
+    """Execute the README's extension example (the python block defining ShadedSurface)."""
+    text = README.read_text(encoding="utf-8")
+    blocks = re.findall(r"```python\n(.*?)```", text, flags=re.S)
+    code = next(b for b in blocks if "class ShadedSurface(Extension)" in b)
+    mod = types.ModuleType("my_effects")
+    exec(compile(code, str(README), "exec"), mod.__dict__)
+    return mod
+
+
+ShadedSurface = _readme_example().ShadedSurface
 
 
 @pytest.fixture(scope="module")
 def cfg():
-    return load_case("runs/hidden.toml")
+    return load_case(README.parent / "runs" / "hidden.toml")
 
 
 @pytest.fixture(scope="module")

@@ -204,7 +204,7 @@ def _score(ref: Fit, cand: Fit) -> tuple[float, float]:
 
 
 def _evidence(name: str, ext, patterns: dict[str, str]) -> list[str]:
-    keys = SIGNALS.get(name, ()) if ext is None else getattr(ext, "signals", ())
+    keys = SIGNALS.get(name, ()) if ext is None else ext.signals
     out = [patterns[k] for k in keys if k in patterns]
     hint = "h(t) varies faster than its pieces allow" if ext is None else ext.hint
     if hint:
@@ -244,9 +244,7 @@ def _fit_extension(ref_problem, ref_fit: Fit, name: str, h_spec: dict) -> Fit:
     null = ext.null_values(prob.meas) or {}
     start.update(null)
     starts = [start]
-    extra = getattr(ext, "start_values", None)
-    if extra is not None:
-        starts = [{**start, **s} for s in extra(prob.meas, base_vals)] or starts
+    starts = [{**start, **s} for s in ext.start_values(prob.meas, base_vals)] or starts
     fits = [refit(prob, s) for s in starts]
     return min(fits, key=lambda f: f.objective)
 

@@ -41,6 +41,10 @@ class Extension:
     hint: str = ""
     #: True if the effect provides h(t) itself, replacing the free h pieces
     replaces_h: bool = False
+    #: residual patterns that point at this effect, keys of
+    #: :func:`pavement_mcmc.criticism.residuals.plain_signals` (e.g. ``"corr:q_net"``,
+    #: ``"depth_growth"``); ``diagnose`` quotes them as evidence
+    signals: tuple[str, ...] = ()
 
     def parameters(self, meas) -> list[Parameter]:
         """The effect's parameters, with values at the *null* (no-effect) point where one exists."""
@@ -49,6 +53,14 @@ class Extension:
     def null_values(self, meas) -> dict[str, float] | None:
         """Parameter values at which the effect vanishes (for score tests); None if it has none."""
         return None
+
+    def start_values(self, meas, base: dict[str, float]) -> list[dict[str, float]]:
+        """Extra starting points for quick refits, for effects with several optima (optional).
+
+        ``base`` is the current point estimate by parameter name; return a list of dicts of
+        this effect's parameter values to try besides its default values.
+        """
+        return []
 
     def material(self, coeffs, p: dict[str, np.ndarray], model) -> None:
         """Edit the material coefficients in place."""
