@@ -82,6 +82,7 @@ SAMPLER_DEFAULTS: dict[str, Any] = {
     "burn_in": None,
     "thin": 1,
     "proposal_scale": None,
+    "move": None,
 }
 #: Valid keys of each [parameters.<name>] table.
 PARAMETER_KEYS = ("value", "lower", "upper", "vary", "prior")

@@ -121,6 +121,8 @@ def _sampler_for(problem: Problem, scfg: dict, laplace=None):
     opts = {}
     if scfg.get("proposal_scale") is not None:
         opts["proposal_scale"] = float(scfg["proposal_scale"])
+    if scfg.get("move") is not None:
+        opts["move"] = str(scfg["move"])
     if laplace is not None:
         opts["laplace"] = laplace
     return get_sampler(kind, problem.posterior, n_chains=scfg.get("n_walkers"),
@@ -190,8 +192,9 @@ def fit(
                               f"'pavement-mcmc resume {out}' to continue it")
     problem = build_problem(cfg)
     smp = _sampler_for(problem, scfg)
-    smp.options["laplace"] = find_map(problem.posterior)
-    smp.n_prep_evals += smp.options["laplace"].n_evals
+    if smp.needs_laplace():
+        smp.options["laplace"] = find_map(problem.posterior)
+        smp.n_prep_evals += smp.options["laplace"].n_evals
     smp.prepare()
     out.mkdir(parents=True, exist_ok=True)
     _store_case(cfg, out, ov, adds)

@@ -216,13 +216,16 @@ class ToyGMRF:
         return Eg, np.sqrt(w @ g**2 - Eg**2), Eh, np.sqrt(Vh)
 
 
-def test_gamma_marginalised_sampler_matches_quadrature():
-    """`fast` with gamma integrated out (random walk on h, exact gamma draw) reproduces the
-    joint posterior's gamma and h means and sds of a small GMRF toy within Monte Carlo error."""
+@pytest.mark.parametrize("move, opts", [("rw", {}), ("block", {}),
+                                         ("block", {"block_kind": "independence"})])
+def test_gamma_marginalised_sampler_matches_quadrature(move, opts):
+    """`fast` with gamma integrated out (random walk on h, exact gamma draw) and the block move
+    (gamma/h joint moves + pCN) reproduce the joint posterior's gamma and h means and sds of a
+    small GMRF toy within Monte Carlo error."""
     post = ToyGMRF()
-    s = get_sampler("fast", post, n_chains=32, seed=4)
+    s = get_sampler("fast", post, n_chains=32, seed=4, move=move, **opts)
     s.prepare()
-    assert s.marginal
+    assert s.marginal and s.block == (move == "block")
     store = _store(post, s.n_chains)
     res = run_sampler(s, store, ess_target=1e9, max_steps=6000, n_adapt=600)
     kept = store.read().chain[res.burn_in:]
@@ -241,12 +244,13 @@ def test_gamma_marginalised_sampler_matches_quadrature():
     np.testing.assert_allclose(d.log_prob[-1], post(d.chain[-1])[0], rtol=0, atol=1e-8)
 
 
-def test_gamma_marginalised_resume_is_bit_for_bit():
+@pytest.mark.parametrize("move", ["rw", "block"])
+def test_gamma_marginalised_resume_is_bit_for_bit(move):
     post = ToyGMRF(seed=2)
     n = 120
 
     def prep():
-        s = get_sampler("fast", post, n_chains=16, seed=7, first_window=20)
+        s = get_sampler("fast", post, n_chains=16, seed=7, first_window=20, move=move)
         s.prepare()
         return s
 
@@ -256,7 +260,7 @@ def test_gamma_marginalised_resume_is_bit_for_bit():
     b = prep()
     st_b = _store(post, b.n_chains)
     run_sampler(b, st_b, ess_target=1e9, max_steps=n // 2 - 30, n_adapt=50)  # inside adaptation
-    c = get_sampler("fast", post, first_window=20)
+    c = get_sampler("fast", post, first_window=20, move=move)
     c.set_state(st_b.state)
     st_c = MemoryStore.open_append(st_b)
     run_sampler(c, st_c, ess_target=1e9, max_steps=n, n_adapt=50)

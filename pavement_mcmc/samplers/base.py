@@ -73,6 +73,10 @@ class Sampler:
     def default_chains(ndim: int) -> int:
         return 32
 
+    def needs_laplace(self) -> bool:
+        """Whether ``prepare`` uses a MAP/Laplace approximation passed as ``options["laplace"]``."""
+        return True
+
     def prepare(self, theta0: np.ndarray | None = None) -> None:
         """Choose initial positions (and whatever the proposal needs); evaluate them."""
         raise NotImplementedError

@@ -54,10 +54,11 @@ import numpy as np
 from ..map import find_map
 from ..priors import Flat, Rayleigh
 from .base import Block, Sampler, finite_draws
+from .block import BlockGMRFMixin
 from .marginal import MarginalGMRF, find_marginal_map, gmrf_of
 
 
-class FastSampler(Sampler):
+class FastSampler(BlockGMRFMixin, Sampler):
     """Laplace-preconditioned Crank–Nicolson + exact gamma Gibbs (see the module docstring).
 
     Options
@@ -65,6 +66,8 @@ class FastSampler(Sampler):
     target_acceptance : float, default 0.45.
     proposal_scale : initial ``beta`` (default ``2.38/sqrt(d)``, at most 1).
     laplace : a precomputed :class:`~pavement_mcmc.map.Laplace` (else computed in ``prepare``).
+    move : ``"rw"`` (default; gamma integrated out, random walk + exact gamma draw) or
+        ``"block"`` (GMRF cases only: joint gamma/x block move mixed with pCN, :mod:`.block`).
     """
 
     name = "fast"
@@ -81,10 +84,17 @@ class FastSampler(Sampler):
     def _use_marginal(self) -> bool:
         return bool(self.options.get("marginal", True)) and gmrf_of(self.posterior.space) is not None
 
+    def needs_laplace(self) -> bool:
+        return not self._use_marginal()  # the gamma-marginal path finds its own mode
+
     def prepare(self, theta0=None) -> None:
         self.marginal = self._use_marginal()
+        self.block = False
         if self.marginal:
-            self._prepare_marginal(theta0)
+            if self.options.get("move", "rw") == "block":
+                self._prepare_block(theta0)
+            else:
+                self._prepare_marginal(theta0)
             return
         lap = self.options.get("laplace")
         if lap is None:
@@ -212,6 +222,8 @@ class FastSampler(Sampler):
 
     # -- stepping ----------------------------------------------------------------------------
     def step(self, n_steps: int, adapt: bool = False) -> Block:
+        if self.marginal and getattr(self, "block", False):
+            return Block.stack(self._step_block(n_steps, adapt))
         if self.marginal:
             return self._step_marginal(n_steps, adapt)
         target = float(self.options.get("target_acceptance", 0.45))
@@ -261,6 +273,8 @@ class FastSampler(Sampler):
         return Block.stack(rows)
 
     def _extra_state(self):
+        if self.marginal and getattr(self, "block", False):
+            return self._extra_state_block()
         if self.marginal:
             return self._extra_state_marginal()
         extra = {"beta": self.beta, "k_adapt": self.k_adapt, "gi": self.gi,
@@ -274,6 +288,10 @@ class FastSampler(Sampler):
 
     def _load_extra_state(self, extra, arrays):
         self.marginal = bool(extra.get("marginal", False))
+        self.block = bool(extra.get("block", False))
+        if self.block:
+            self._load_extra_state_block(extra, arrays)
+            return
         if self.marginal:
             self._load_extra_state_marginal(extra, arrays)
             return
