@@ -45,3 +45,28 @@ def parse_assignments(items: list[str] | None) -> dict[str, float]:
 
 def warn(msg: str) -> None:
     print(f"warning: {msg}", file=sys.stderr)
+
+
+def add_set_option(p: argparse.ArgumentParser) -> None:
+    """``--set NAME=VALUE ...``: parameter values (``h`` sets every h piece); a dotted key
+    (``grid.dx=0.0025``) overrides the case config instead."""
+    p.add_argument(
+        "--set", dest="assign", nargs="+", action="extend", default=[], metavar="NAME=VALUE",
+        help="parameter values, e.g. kappa=1.3 C=1.0e6 h=10 (h sets every h piece); dotted keys "
+             "such as grid.dx=0.0025 override the case config",
+    )
+
+
+def split_assignments(items: list[str]) -> tuple[dict, dict[str, float]]:
+    """Split ``--set`` items into config overrides (dotted keys) and parameter values."""
+    from ..config import merge_overrides, parse_set
+
+    overrides: dict = {}
+    params = []
+    for item in items:
+        key = item.partition("=")[0]
+        if "." in key:
+            overrides = merge_overrides(overrides, parse_set(item))
+        else:
+            params.append(item)
+    return overrides, parse_assignments(params)

@@ -7,7 +7,7 @@ import sys
 
 import numpy as np
 
-from .common import add_json_flag, emit, parse_assignments
+from .common import add_json_flag, add_set_option, emit, split_assignments
 
 
 def add_parser(sub) -> None:
@@ -21,8 +21,7 @@ def add_parser(sub) -> None:
     p.add_argument("--overwrite", action="store_true", help="replace an existing run in --out")
     p.add_argument("--add", action="append", metavar="EXT", default=[],
                    help="add a physics extension (repeatable), e.g. --add two_layer")
-    p.add_argument("--set", action="append", metavar="NAME=VALUE", default=[], dest="set_",
-                   help="set a parameter's value, e.g. --set kappa=1.3 (repeatable)")
+    add_set_option(p)
     p.add_argument("--sampler", metavar="KIND", help="override sampler.kind: emcee, mh or fast")
     p.add_argument("--seed", type=int, help="override sampler.seed")
     p.add_argument("--max-seconds", type=float, help="wall-time budget of the sampling")
@@ -77,9 +76,10 @@ def _interrupted(run_dir) -> int:
 def run_fit(args: argparse.Namespace) -> int:
     from ..runner import fit
 
+    overrides, values = split_assignments(args.assign)
     try:
         out = fit(args.case, args.out, overwrite=args.overwrite, add=args.add,
-                  set_values=parse_assignments(args.set_), sampler=args.sampler, seed=args.seed,
+                  set_values=values, overrides=overrides or None, sampler=args.sampler, seed=args.seed,
                   max_seconds=args.max_seconds, ess_target=args.ess,
                   progress=not (args.no_progress or args.json))
     except KeyboardInterrupt:

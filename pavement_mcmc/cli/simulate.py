@@ -13,7 +13,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .common import add_json_flag, emit, parse_assignments
+from .common import add_json_flag, add_set_option, emit, split_assignments
 
 HELP = "run the forward model at given parameter values; write predictions and a figure"
 
@@ -31,31 +31,6 @@ def add_parser(sub) -> None:
     p.add_argument("--out", help="output directory (default: <case dir>/<name>_simulate)")
     add_json_flag(p)
     p.set_defaults(func=run)
-
-
-def add_set_option(p: argparse.ArgumentParser) -> None:
-    """``--set NAME=VALUE ...``: parameter values (``h`` sets every h piece); a dotted key
-    (``grid.dx=0.0025``) overrides the case config instead."""
-    p.add_argument(
-        "--set", dest="assign", nargs="+", action="extend", default=[], metavar="NAME=VALUE",
-        help="parameter values, e.g. kappa=1.3 C=1.0e6 h=10 (h sets every h piece); dotted keys "
-             "such as grid.dx=0.0025 override the case config",
-    )
-
-
-def split_assignments(items: list[str]) -> tuple[dict, dict[str, float]]:
-    """Split ``--set`` items into config overrides (dotted keys) and parameter values."""
-    from ..config import merge_overrides, parse_set
-
-    overrides: dict = {}
-    params = []
-    for item in items:
-        key = item.partition("=")[0]
-        if "." in key:
-            overrides = merge_overrides(overrides, parse_set(item))
-        else:
-            params.append(item)
-    return overrides, parse_assignments(params)
 
 
 def load_problem(case: str, items: list[str]):
