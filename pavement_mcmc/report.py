@@ -141,6 +141,15 @@ class RunView:
         """(n_kept * n_chains, n_params) draws after burn-in."""
         return self.kept.reshape(-1, self.kept.shape[2])
 
+    def thinned(self, max_steps: int = 2000) -> tuple[np.ndarray, int]:
+        """The kept chain thinned to at most ``max_steps`` steps, and the thinning factor.
+
+        Figures of long runs (Case C keeps ~75 000 steps x 32 chains x 115 parameters) use it:
+        autocovariance norms and segment statistics of the full chain would take minutes.
+        """
+        thin = max(1, -(-self.kept.shape[0] // max_steps))
+        return self.kept[::thin], thin
+
     def draws(self, n: int = 100) -> np.ndarray:
         """``n`` draws from the kept chain, evenly spaced in steps, walkers at random (seeded)."""
         k = self.kept
@@ -421,6 +430,12 @@ _register_builtin_sections()
 # ---------------------------------------------------------------------------- the report
 
 
+def _lags(kept: np.ndarray, tau: float, thin: int) -> int:
+    """Lags to draw: about 5 IACTs (at least 50 thinned steps), at most a third of the chain."""
+    want = max(50, int(5 * tau / thin)) if np.isfinite(tau) else kept.shape[0] // 3
+    return int(max(1, min(want, kept.shape[0] // 3)))
+
+
 def build_report(view: RunView, out: str | Path | None = None, dpi: int = 80,
                  n_draws: int = 100) -> Path:
     """Write the run's self-contained HTML report; return its path (default
@@ -544,6 +559,8 @@ def _figures(view: RunView, n_draws: int) -> list[tuple[str, Callable, str]]:
         return pl.plot_sensitivity(s, sigma=meas.sigma)
 
     max_tau = float(np.nanmax([s["tau"] for s in a.table.values()]))
+    kept, thin = view.thinned()
+    thin_flat = kept.reshape(-1, kept.shape[2])
     figs = [
         ("Measured vs predicted temperatures", fit,
          f"Posterior predictive median and 95 % band from {n_draws} posterior draws solved in "
@@ -555,18 +572,19 @@ def _figures(view: RunView, n_draws: int) -> list[tuple[str, Callable, str]]:
         ("Surface fluxes", fluxes,
          "Convective flux h (T_air − T_s) with its band, the measured net radiation, and the "
          "modelled T_air − T_s."),
-        ("Corner plot", lambda: pl.plot_corner(view.flat, names, subset, truths),
+        ("Corner plot", lambda: pl.plot_corner(thin_flat, names, subset, truths),
          "Posterior after burn-in (dashed lines: 2.5, 50, 97.5 %); red: truth."),
-        ("Markov chains", lambda: pl.plot_chains(view.run.chain, names, view.burn_in, subset,
-                                                 truths),
+        ("Markov chains", lambda: pl.plot_chains(view.run.chain[::thin], names,
+                                                 view.burn_in // thin, subset, truths),
          "Walker traces (grey), their mean (blue), burn-in (red dashed); histograms after "
          "burn-in."),
         ("Log-posterior trace", lambda: pl.plot_logp(view.run.log_prob, view.burn_in), ""),
         ("Acceptance", lambda: pl.plot_acceptance(view.run.accepted, view.burn_in), ""),
-        ("Autocovariance norm", lambda: pl.plot_autocovariance(view.kept, tau=max_tau),
+        ("Autocovariance norm", lambda: pl.plot_autocovariance(kept, tau=max_tau, thin=thin,
+                                                               max_lag=_lags(kept, max_tau, thin)),
          "Norm of the lag-k autocovariance matrix of the standardised kept chain."),
-        ("Geweke", lambda: pl.plot_geweke(view.kept, names, subset), ""),
-        ("Early vs late segments", lambda: pl.plot_segments(view.kept, names, subset), ""),
+        ("Geweke", lambda: pl.plot_geweke(kept, names, subset), ""),
+        ("Early vs late segments", lambda: pl.plot_segments(kept, names, subset), ""),
         ("Sensitivity coefficients at the posterior mean", sens,
          "Reduced sensitivity coefficients p ∂T/∂p by central differences (Δp = 10⁻² p)."),
     ]

@@ -139,7 +139,8 @@ def plot_acceptance(
 
 
 def plot_autocovariance(
-    chain: np.ndarray, max_lag: int | None = None, tau: float | None = None, fig: Figure | None = None
+    chain: np.ndarray, max_lag: int | None = None, tau: float | None = None, fig: Figure | None = None,
+    thin: int = 1,
 ) -> Figure:
     """Norm of the posterior's autocovariance (standardised parameters) against lag.
 
@@ -147,7 +148,8 @@ def plot_autocovariance(
     ----------
     chain : (n_steps, n_chains, n_params) kept (post burn-in) chain.
     max_lag : largest lag (default ``n_steps // 3``).
-    tau : an integrated autocorrelation time to mark (e.g. the largest over parameters).
+    tau : an integrated autocorrelation time to mark (e.g. the largest over parameters), steps.
+    thin : the chain was thinned by this factor; lags are drawn in original steps.
     """
     chain = np.asarray(chain, float)
     n = chain.shape[0]
@@ -155,7 +157,7 @@ def plot_autocovariance(
     g = dg.autocovariance_norm(chain, max_lag)
     fig = new_figure(fig, (7, 3.6))
     ax = fig.subplots()
-    ax.plot(np.arange(max_lag + 1), g, color="C0", label="‖Γ(k)‖ / ‖Γ(0)‖ (Frobenius)")
+    ax.plot(np.arange(max_lag + 1) * thin, g, color="C0", label="‖Γ(k)‖ / ‖Γ(0)‖ (Frobenius)")
     ax.axhline(0, color="0.5", lw=0.8)
     if tau is not None and np.isfinite(tau):
         ax.axvline(tau, color="C3", ls="--", label=f"max IACT = {tau:.1f} steps")
