@@ -111,12 +111,7 @@ class BlockGMRFMixin:
             prop[:, self.gi] = gp
             xp = prop[:, self.idx]
             inside = (np.all((xp >= lo_i) & (xp <= hi_i), axis=1) & (gp > g_lo) & (gp < g_hi))
-            ll_p = np.full(m, -np.inf)
-            bl = np.full_like(self.blobs, np.inf)
-            n_in = int(inside.sum())
-            if n_in:
-                ll_p[inside], bl[inside] = self._loglik(prop[inside])
-            uni_p = self._uni_logp(prop)
+            ll_p, bl, uni_p, n_in = self._score(prop, inside)
             with np.errstate(invalid="ignore", divide="ignore"):
                 lp_p = ll_p + self._joint_log_prior(prop, uni_p)
                 # block: pi(x', g') g' q(x | g) / (pi(x, g) g q(x' | g'))

@@ -335,6 +335,16 @@ class FastSampler(BlockGMRFMixin, Sampler):
         self.gprior = space[free[self.gi]].prior
         self.lo, self.hi = space.bounds()
 
+    def _score(self, prop: np.ndarray, inside: np.ndarray):
+        """Log-likelihood, blobs and univariate log-prior of proposals; only those ``inside``
+        the bounds are solved (the others get -inf). Returns (ll, blobs, uni, n_solved)."""
+        ll = np.full(prop.shape[0], -np.inf)
+        bl = np.full_like(self.blobs, np.inf)
+        n_in = int(inside.sum())
+        if n_in:
+            ll[inside], bl[inside] = self._loglik(prop[inside])
+        return ll, bl, self._uni_logp(prop), n_in
+
     def _uni_logp(self, X: np.ndarray) -> np.ndarray:
         out = np.zeros(X.shape[0])
         for i, pr in self.uni:
@@ -422,12 +432,7 @@ class FastSampler(BlockGMRFMixin, Sampler):
             inside = np.all((xp >= lo_i) & (xp <= hi_i), axis=1)
             prop = self.theta.copy()
             prop[:, self.idx] = xp
-            ll_p = np.full(m, -np.inf)
-            bl = np.full_like(self.blobs, np.inf)
-            n_in = int(inside.sum())
-            if n_in:
-                ll_p[inside], bl[inside] = self._loglik(prop[inside])
-            uni_p = self._uni_logp(prop)
+            ll_p, bl, uni_p, n_in = self._score(prop, inside)
             with np.errstate(invalid="ignore"):
                 ml_p = ll_p + uni_p + self.tab.log_prior_h(prop[:, self.hcols])
                 log_a = ml_p - self.mlogp
