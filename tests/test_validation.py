@@ -33,8 +33,9 @@ SBC_PRIOR = {"kappa": TruncatedNormal(1.5, 0.3), "C": TruncatedNormal(1.5e6, 0.3
              "h_1": TruncatedNormal(10.0, 3.0)}
 
 
-def _run(post, kind="fast", n_chains=None, seed=0, **kw):
-    s = get_sampler(kind, post, n_chains=n_chains, seed=seed)
+def _run(post, kind="fast", n_chains=None, seed=0, move=None, **kw):
+    opts = {"move": move} if move else {}
+    s = get_sampler(kind, post, n_chains=n_chains, seed=seed, **opts)
     s.prepare()
     st = MemoryStore.create(post.space.free, post.blob_names, s.n_chains, {"sampler": kind})
     res = run_sampler(s, st, **kw)
@@ -113,8 +114,8 @@ def test_reference_case_c_coverage_with_wide_priors():
     pr = _case("caseC", {"parameters": {
         "kappa": {"prior": {"dist": "truncnormal", "mean": 1.5, "sd": 0.5}},
         "C": {"prior": {"dist": "truncnormal", "mean": 1.5e6, "sd": 0.5e6}}}})
-    res, data = _run(pr.posterior, n_chains=32, seed=1, ess_target=1000, max_steps=200_000,
-                     max_seconds=900)
+    res, data = _run(pr.posterior, n_chains=32, seed=1, move="block", ess_target=1000,
+                     max_steps=200_000, max_seconds=1200)
     kept = data.chain[res.burn_in:].reshape(-1, pr.posterior.ndim)
     lo, hi = np.percentile(kept, [2.5, 97.5], axis=0)
     truth = truth_values(pr)
