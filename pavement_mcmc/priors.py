@@ -34,18 +34,11 @@ class Prior:
 
 
 @dataclass(frozen=True)
-class Normal(Prior):
-    """Gaussian prior N(mu, sd^2)."""
+class _Gaussian(Prior):
+    """Shared fields of the Gaussian priors: location ``mu`` and scale ``sigma``."""
 
     mu: float
     sigma: float
-
-    def logpdf(self, x):
-        z = (np.asarray(x, float) - self.mu) / self.sigma
-        return -0.5 * z * z - np.log(self.sigma) - _LOG_SQRT_2PI
-
-    def sample(self, rng, size):
-        return rng.normal(self.mu, self.sigma, size)
 
     @property
     def mean(self):
@@ -57,14 +50,24 @@ class Normal(Prior):
 
 
 @dataclass(frozen=True)
-class TruncatedNormal(Prior):
+class Normal(_Gaussian):
+    """Gaussian prior N(mu, sd^2)."""
+
+    def logpdf(self, x):
+        z = (np.asarray(x, float) - self.mu) / self.sigma
+        return -0.5 * z * z - np.log(self.sigma) - _LOG_SQRT_2PI
+
+    def sample(self, rng, size):
+        return rng.normal(self.mu, self.sigma, size)
+
+
+@dataclass(frozen=True)
+class TruncatedNormal(_Gaussian):
     r"""Gaussian N(mu, sd^2) truncated to ``[lower, upper]`` (default: positive values).
 
     .. math:: \pi(x) = \frac{\phi((x-\mu)/s)}{s\,[\Phi((u-\mu)/s) - \Phi((l-\mu)/s)]},\ l \le x \le u
     """
 
-    mu: float
-    sigma: float
     lower: float = 0.0
     upper: float = np.inf
 
@@ -88,14 +91,6 @@ class TruncatedNormal(Prior):
         a = (self.lower - self.mu) / self.sigma
         b = (self.upper - self.mu) / self.sigma
         return truncnorm.rvs(a, b, loc=self.mu, scale=self.sigma, size=size, random_state=rng)
-
-    @property
-    def mean(self):
-        return self.mu
-
-    @property
-    def sd(self):
-        return self.sigma
 
 
 @dataclass(frozen=True)
