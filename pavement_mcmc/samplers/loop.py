@@ -10,6 +10,10 @@ Rule (checked after every block once adaptation is over):
   least ``min_tau_lengths`` (50) integrated autocorrelation times long, every split-R-hat is
   below ``rhat_max`` (1.01) and the mean log-posterior is not drifting
   (:func:`~pavement_mcmc.diagnostics.is_drifting`);
+* the check runs after a block only when the sampling since the previous check took at least
+  :data:`CHECK_COST_RATIO` times that check's cost (diagnostics stay a small fraction of the
+  wall time on long, high-dimensional runs), and stops at the first failing criterion; a run
+  stopped by a budget gets one full check at the end;
 * otherwise the run stops when ``max_steps`` (counted over the whole run, resumes included) or
   ``max_seconds`` (this invocation) runs out, with ``converged=False`` and the reason.
 
@@ -33,6 +37,11 @@ from ..storage import Store
 from .base import Sampler
 
 #: default adaptation length per sampler (steps), as a function of the dimension
+#: rows (after thinning) on which a convergence check estimates tau and split-R-hat
+TAU_ROWS, RHAT_ROWS = 2000, 1000
+#: a check runs only when the sampling since the previous one took >= this many times its cost
+CHECK_COST_RATIO = 4.0
+
 DEFAULT_ADAPT = {"fast": lambda d: max(150, 10 * d), "mh": lambda d: max(2000, 50 * d),
                  "emcee": lambda d: 0}
 
@@ -82,37 +91,50 @@ class Check:
 def check_convergence(chain: np.ndarray, logp: np.ndarray, accepted: np.ndarray, n_adapt_rows: int,
                       burn_in: int | None = None, ess_target: float = 1000.0,
                       min_tau_lengths: float = 50.0, rhat_max: float = 1.01,
-                      names: list[str] | None = None) -> Check:
-    """Apply the stopping rule to stored rows (see the module docstring)."""
+                      names: list[str] | None = None, full: bool = True) -> Check:
+    """Apply the stopping rule to stored rows (see the module docstring).
+
+    The estimates use the kept chain thinned to at most :data:`TAU_ROWS` rows (tau, ESS, drift)
+    and :data:`RHAT_ROWS` rows (split-R-hat; the rank normalisation sorts every draw), which
+    keeps a check cheap next to the sampling. With ``full=False`` the check stops at the
+    first failing criterion in the order ESS / length (cheap), drift, R-hat (the costly one):
+    the run loop uses that while the chain is still short; unevaluated R-hats are ``nan``.
+    """
     if burn_in is None:
         rest = logp[n_adapt_rows:]
         extra = dg.choose_burn_in(rest) if rest.shape[0] >= 20 else 0
         burn_in = n_adapt_rows + extra
     kept = chain[burn_in:]
-    names = names or [f"p{i}" for i in range(chain.shape[2])]
+    p = chain.shape[2]
+    names = names or [f"p{i}" for i in range(p)]
     if kept.shape[0] < 8:
-        return Check(burn_in, np.zeros(chain.shape[2]), np.full(chain.shape[2], np.inf),
-                     np.full(chain.shape[2], np.inf), float("nan"), False,
-                     [f"only {kept.shape[0]} kept steps"])
-    # estimates on at most ~4000 rows (thinned): cheap enough to run after every block
-    k = max(1, kept.shape[0] // 4000)
-    sub = kept[::k]
-    tau = dg.integrated_time(sub, tol=0, quiet=True) * k
+        return Check(burn_in, np.zeros(p), np.full(p, np.inf), np.full(p, np.inf), float("nan"),
+                     False, [f"only {kept.shape[0]} kept steps"])
+    k = max(1, kept.shape[0] // TAU_ROWS)
+    tau = dg.integrated_time(kept[::k], tol=0, quiet=True) * k
     ess = kept.shape[0] * kept.shape[1] / tau
-    rhat = dg.split_rhat(sub)
-    drifting = dg.is_drifting(logp[burn_in:][::k])
     acc = float(np.mean(accepted[burn_in:]))
     fails = []
-    low = np.flatnonzero(~(ess >= ess_target))
-    if low.size:
+    if not np.all(ess >= ess_target):
         fails.append(f"ESS {ess.min():.0f} < {ess_target:g} ({names[int(np.argmin(ess))]})")
     if not kept.shape[0] >= min_tau_lengths * np.max(tau):
         fails.append(f"kept chain {kept.shape[0]} < {min_tau_lengths:g} x tau_max {np.max(tau):.1f}")
-    if not np.all(rhat < rhat_max):
-        fails.append(f"R-hat {np.nanmax(rhat):.3f} >= {rhat_max}")
+    drifting = dg.is_drifting(logp[burn_in:][::k])
     if drifting:
         fails.append("log-posterior still drifting")
+    rhat = np.full(p, np.nan)
+    if full or not fails:
+        rhat = dg.split_rhat(kept[:: max(1, kept.shape[0] // RHAT_ROWS)])
+        if not np.all(rhat < rhat_max):
+            fails.append(f"R-hat {np.nanmax(rhat):.3f} >= {rhat_max}")
     return Check(burn_in, ess, tau, rhat, acc, drifting, fails)
+
+
+def _merged(rows: list) -> tuple:
+    """Concatenate the (chain, logp, accepted) blocks in place (one block left) and return it."""
+    if len(rows) > 1:
+        rows[:] = [tuple(np.concatenate([r[i] for r in rows]) for i in range(3))]
+    return rows[0]
 
 
 def run_sampler(
@@ -167,6 +189,7 @@ def run_sampler(
     check = None
     reason = ""
     converged = False
+    check_cost = since_check = 0.0  # seconds: last check, sampling since then
     try:
         while True:
             if n_steps >= max_steps:
@@ -196,13 +219,12 @@ def run_sampler(
             # aim for blocks of ~block_seconds
             block = int(np.clip(todo * block_seconds / max(dt, 1e-3), thin, 5000)) // thin * thin
             block = max(block, thin)
-            if not adapt and n_steps >= n_adapt:
-                chain = np.concatenate([r[0] for r in rows])
-                logp = np.concatenate([r[1] for r in rows])
-                accd = np.concatenate([r[2] for r in rows])
-                rows = [(chain, logp, accd)]
-                check = check_convergence(chain, logp, accd, n_adapt_rows, burn_rows, ess_target,
-                                          min_tau_lengths, rhat_max, names)
+            since_check += dt
+            if not adapt and n_steps >= n_adapt and since_check >= CHECK_COST_RATIO * check_cost:
+                tc = time.perf_counter()
+                check = check_convergence(*_merged(rows), n_adapt_rows, burn_rows, ess_target,
+                                          min_tau_lengths, rhat_max, names, full=False)
+                check_cost, since_check = time.perf_counter() - tc, 0.0
                 if not check.failures:
                     converged = True
                     reason = (f"ESS >= {ess_target:g} for every parameter, kept chain"
@@ -220,6 +242,10 @@ def run_sampler(
     finally:
         if bar is not None:
             bar.close()
+    if not converged and n_steps >= n_adapt and rows:
+        # stopped by a budget: one full check of everything sampled, for the report
+        check = check_convergence(*_merged(rows), n_adapt_rows, burn_rows, ess_target,
+                                  min_tau_lengths, rhat_max, names, full=True)
     if check is not None and check.failures and not converged:
         reason += "; not converged: " + "; ".join(check.failures)
     elif check is None and not converged:
