@@ -2,7 +2,7 @@
 
 A run directory holds::
 
-    chain.h5      the chain, log-posterior, RMSE blobs, acceptance and resume state (storage.py)
+    chain.h5      the chain, log-posterior, RMSE blobs, acceptance and resume state (the storage package)
     case.toml     the case as run (overrides applied, data paths absolute): rebuilds the problem
     config.json   the config record (:func:`pavement_mcmc.config.dump_config`) + overrides
     result.json   the outcome: converged, reason, burn-in, ESS, R-hat, timings

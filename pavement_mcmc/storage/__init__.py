@@ -1,0 +1,34 @@
+"""Run storage: one interface (:class:`Store`), an in-memory and an HDF5 implementation.
+
+A run holds, per saved step, ``chain`` (n_steps, n_chains, n_params), ``log_prob``
+(n_steps, n_chains), ``blobs`` (n_steps, n_chains, n_blobs) and ``accepted`` (n_steps, n_chains),
+plus metadata fixed at creation (parameter and blob names, configuration JSON, data hash, sampler,
+package version, creation time) and the state needed to resume exactly (:class:`RunState`: last
+position, log-probability and blobs, the ``numpy.random.Generator`` state, free-form JSON and
+named float arrays such as an adapted proposal covariance).
+
+Modules: :mod:`.records` (:class:`RunState`, :class:`RunData` and their JSON encoding),
+:mod:`.base` (the :class:`Store` interface: buffered writing, the commit record, consistent
+reading), :mod:`.memory` (:class:`MemoryStore`), :mod:`.hdf5` (:class:`HDF5Store` in SWMR mode
+and :func:`read_run`, which reads a finished or a live run).
+"""
+
+from __future__ import annotations
+
+from .base import FORMAT_VERSION, Store, StoreBusy, StoreMismatch  # noqa: F401  (FORMAT_VERSION)
+from .hdf5 import HDF5Store, read_run
+from .memory import MemoryStore
+from .records import RunData, RunState, config_diff, rng_from_state
+
+__all__ = [
+    "HDF5Store",
+    "MemoryStore",
+    "RunData",
+    "RunState",
+    "Store",
+    "StoreBusy",
+    "StoreMismatch",
+    "config_diff",
+    "read_run",
+    "rng_from_state",
+]

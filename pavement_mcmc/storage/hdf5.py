@@ -1,0 +1,283 @@
+"""A run in an HDF5 file (:class:`HDF5Store`) and :func:`read_run` for a finished or live run.
+
+The HDF5 file is written in SWMR mode (single writer, multiple readers), so :func:`read_run`
+works on a file another process is writing (emcee issues 389 and 393). SWMR forbids creating
+datasets or attributes once it is on, so everything is created up front: metadata are attributes
+written at creation, variable-length state lives in resizable ``uint8`` / ``float64`` datasets.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import socket
+
+import numpy as np
+
+from .base import FORMAT_VERSION, Store, StoreBusy
+from .records import RunData, RunState, _dumps, _loads
+
+
+def _h5py():
+    import h5py
+
+    return h5py
+
+
+_ROWS = ("chain", "log_prob", "blobs", "accepted")
+
+
+class HDF5Store(Store):
+    """A run in an HDF5 file written in SWMR mode; readable while it is being written.
+
+    Layout: datasets ``chain``, ``log_prob``, ``blobs``, ``accepted`` (chunked, unlimited along
+    steps); ``state/position`` (2, n_chains, n_params), ``state/log_prob``, ``state/blobs`` (two
+    slots), ``state/json0|1`` (uint8 JSON: rng state, extra, array index), ``state/arrays0|1``
+    (float64, concatenated named arrays); ``commit`` int64 (n_saved, slot, generation);
+    ``writer`` uint8 (JSON pid and host of the live writer). Metadata are root attributes
+    (``meta_json`` holds them all). ``flush`` calls ``H5Fflush`` but not ``fsync``: a killed
+    process leaves a readable file, a power cut may not.
+    """
+
+    def __init__(self, f, path: str, writable: bool) -> None:
+        meta = _loads(f.attrs["meta_json"])
+        if meta.get("format_version") != FORMAT_VERSION:
+            raise ValueError(f"{path}: unsupported run format {meta.get('format_version')!r}")
+        super().__init__(
+            json.loads(f.attrs["param_names"]),
+            json.loads(f.attrs["blob_names"]),
+            int(f.attrs["n_chains"]),
+            meta,
+            writable,
+        )
+        self._f = f
+        self.path = path
+
+    def _where(self) -> str:
+        return self.path
+
+    @classmethod
+    def create(
+        cls,
+        path: str | os.PathLike,
+        param_names: list[str],
+        blob_names: list[str],
+        n_chains: int,
+        meta: dict,
+        overwrite: bool = False,
+    ) -> HDF5Store:
+        """Create a new run file and keep it open for writing.
+
+        Raises ``FileExistsError`` if ``path`` exists and ``overwrite`` is False.
+        """
+        h5py = _h5py()
+        path = os.fspath(path)
+        if os.path.exists(path) and not overwrite:
+            raise FileExistsError(
+                f"{path} already holds a run; pass overwrite=True to replace "
+                "it or resume it with HDF5Store.open_append"
+            )
+        meta = cls._make_meta(param_names, blob_names, n_chains, meta)
+        m, p, b = int(n_chains), len(param_names), len(blob_names)
+        rows = max(1, min(1024, 2**18 // (8 * m * max(p, b, 1))))
+        f = h5py.File(path, "w", libver="latest")
+        try:
+            f.attrs.update(
+                {
+                    "meta_json": _dumps(meta),
+                    "param_names": json.dumps(param_names),
+                    "blob_names": json.dumps(blob_names),
+                    "n_chains": m,
+                    "format_version": FORMAT_VERSION,
+                }
+            )
+            for name, tail, dt in zip(
+                _ROWS, [(m, p), (m,), (m, b), (m,)], ["f8", "f8", "f8", "bool"], strict=True
+            ):
+                chunks = (rows, *tail) if all(tail) else True  # zero-width blobs: auto chunks
+                f.create_dataset(name, shape=(0, *tail), maxshape=(None, *tail), dtype=dt, chunks=chunks)
+            g = f.create_group("state")
+            for name, tail in [("position", (m, p)), ("log_prob", (m,)), ("blobs", (m, b))]:
+                g.create_dataset(name, shape=(2, *tail), dtype="f8")
+            for s in (0, 1):
+                g.create_dataset(f"json{s}", shape=(0,), maxshape=(None,), dtype="u1", chunks=(4096,))
+                g.create_dataset(f"arrays{s}", shape=(0,), maxshape=(None,), dtype="f8", chunks=(4096,))
+            f.create_dataset("commit", data=np.array([0, -1, 0], dtype=np.int64))
+            f.create_dataset("writer", shape=(256,), dtype="u1")
+            return cls._start_writing(f, path)
+        except BaseException:
+            f.close()
+            raise
+
+    @classmethod
+    def _start_writing(cls, f, path: str) -> HDF5Store:
+        info = json.dumps({"pid": os.getpid(), "host": socket.gethostname()}).encode()[:256]
+        f["writer"][...] = np.frombuffer(info.ljust(256, b"\0"), dtype=np.uint8)
+        f.swmr_mode = True
+        return cls(f, path, writable=True)
+
+    @classmethod
+    def open_append(cls, path: str | os.PathLike, recover: bool = True, force: bool = False) -> HDF5Store:
+        """Reopen a run for writing; resume from ``.state`` (and ``.meta``, ``.n_saved``).
+
+        If a writer was killed, HDF5 refuses to reopen the file. With ``recover`` the committed
+        steps and state are copied into a fresh file at ``path`` and the damaged file is kept as
+        ``path + '.crashed'``. :class:`StoreBusy` is raised if the recorded writer is still
+        alive on this host, or runs on another host (unless ``force``).
+        """
+        h5py = _h5py()
+        path = os.fspath(path)
+        try:
+            f = h5py.File(path, "r+", libver="latest")
+        except OSError as err:
+            if "already open for write" not in str(err):
+                raise
+            with h5py.File(path, "r", swmr=True) as fr:
+                raw = bytes(fr["writer"][...]).rstrip(b"\0")
+            w = json.loads(raw) if raw else {}
+            if w.get("host") != socket.gethostname() and not force:
+                raise StoreBusy(
+                    f"{path} is open for writing on host {w.get('host')!r}; "
+                    "pass force=True if that writer is dead"
+                ) from err
+            if w.get("host") == socket.gethostname() and _pid_alive(int(w.get("pid", -1))):
+                raise StoreBusy(f"{path} is being written by process {w['pid']}") from err
+            if not recover:
+                raise
+            cls._recover(path)
+            f = h5py.File(path, "r+", libver="latest")
+        try:
+            return cls._start_writing(f, path)
+        except BaseException:
+            f.close()
+            raise
+
+    @classmethod
+    def _recover(cls, path: str) -> None:
+        """Copy the committed part of a run left by a killed writer into a fresh file."""
+        src = cls.open_readonly(path)
+        try:
+            data = src.read()
+            gen = src._read_commit()[2]
+        finally:
+            src.close()
+        tmp = path + ".recovering"
+        new = cls.create(tmp, data.param_names, data.blob_names, src.n_chains, data.meta, overwrite=True)
+        try:
+            if data.n_saved:
+                new._write_rows(0, data.chain, data.log_prob, data.blobs, data.accepted)
+            if data.state is not None:
+                new._write_state(0, data.state)
+            new._commit(data.n_saved, 0 if data.state is not None else -1, gen)
+        finally:
+            new.close()
+        os.replace(path, path + ".crashed")
+        os.replace(tmp, path)
+
+    @classmethod
+    def open_readonly(cls, path: str | os.PathLike) -> HDF5Store:
+        """Open a run for reading (SWMR); works while another process writes it."""
+        path = os.fspath(path)
+        h5py = _h5py()
+        try:
+            f = h5py.File(path, "r", libver="latest", swmr=True)
+        except OSError as err:  # e.g. file systems without locking, or a stale lock
+            if "lock" not in str(err):
+                raise
+            f = h5py.File(path, "r", libver="latest", swmr=True, locking=False)
+        try:
+            return cls(f, path, writable=False)
+        except BaseException:
+            f.close()
+            raise
+
+    def close(self) -> None:
+        """Close the file (unflushed rows are discarded with a warning)."""
+        if self.closed:
+            return
+        super().close()
+        try:
+            if self.writable:
+                self._f["writer"][...] = 0
+        finally:
+            self._f.close()
+
+    # --- primitives -----------------------------------------------------------------------
+    def _ds(self, name: str):
+        ds = self._f[name]
+        if not self.writable:
+            ds.refresh()
+        return ds
+
+    def _read_commit(self) -> tuple[int, int, int]:
+        n, slot, gen = (int(v) for v in self._ds("commit")[...])
+        return n, slot, gen
+
+    def _read_rows(self, stop: int) -> tuple[np.ndarray, ...]:
+        return tuple(self._ds(name)[:stop] for name in _ROWS)
+
+    def _read_state(self, slot: int) -> RunState:
+        g = "state/"
+        d = _loads(bytes(self._ds(f"{g}json{slot}")[...]))
+        flat = self._ds(f"{g}arrays{slot}")[...]
+        arrays = {k: flat[o : o + int(np.prod(s))].reshape(s) for k, (o, s) in d["index"].items()}
+        return RunState(
+            self._ds(g + "position")[slot],
+            self._ds(g + "log_prob")[slot],
+            self._ds(g + "blobs")[slot],
+            d["rng_state"],
+            d["extra"],
+            arrays,
+        )
+
+    def _write_rows(self, start, chain, log_prob, blobs, accepted) -> None:
+        stop = start + len(chain)
+        for name, arr in zip(_ROWS, [chain, log_prob, blobs, accepted], strict=True):
+            ds = self._f[name]
+            ds.resize(stop, axis=0)
+            if arr.size:
+                ds[start:stop] = arr
+
+    def _write_state(self, slot: int, state: RunState) -> None:
+        g = self._f["state"]
+        g["position"][slot] = state.position
+        g["log_prob"][slot] = state.log_prob
+        if state.blobs.size:
+            g["blobs"][slot] = state.blobs
+        index, offset = {}, 0
+        for k, a in state.arrays.items():
+            index[k] = (offset, list(a.shape))
+            offset += a.size
+        payload = _dumps({"rng_state": state.rng_state, "extra": state.extra, "index": index})
+        buf = np.frombuffer(payload.encode(), dtype=np.uint8)
+        g[f"json{slot}"].resize(buf.shape)
+        g[f"json{slot}"][:] = buf
+        g[f"arrays{slot}"].resize((offset,))
+        if offset:
+            g[f"arrays{slot}"][:] = np.concatenate([a.ravel() for a in state.arrays.values()])
+
+    def _commit(self, n_saved: int, slot: int, generation: int) -> None:
+        self._f.flush()  # rows and state reach the file before the commit that exposes them
+        self._f["commit"][...] = np.array([n_saved, slot, generation], dtype=np.int64)
+        self._f.flush()
+
+
+def _pid_alive(pid: int) -> bool:
+    if pid <= 0:
+        return False
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:
+        return True
+    return True
+
+
+def read_run(path: str | os.PathLike) -> RunData:
+    """Read a stored run (committed steps, metadata, resume state) as plain numpy arrays.
+
+    Safe on a file another process is currently writing.
+    """
+    with HDF5Store.open_readonly(path) as store:
+        return store.read()

@@ -1,0 +1,77 @@
+"""A run kept in memory (:class:`MemoryStore`), with the semantics of the HDF5 store."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .base import Store
+from .records import RunState, _dumps, _loads
+
+
+class _MemoryRun:
+    def __init__(self, n_chains: int, n_params: int, n_blobs: int) -> None:
+        m = n_chains
+        self.cols = [
+            np.zeros((0, m, n_params)),
+            np.zeros((0, m)),
+            np.zeros((0, m, n_blobs)),
+            np.zeros((0, m), dtype=bool),
+        ]
+        self.slots: list[str | None] = [None, None]  # JSON of each state slot
+        self.commit = (0, -1, 0)
+
+
+class MemoryStore(Store):
+    """A run kept in memory (tests, short interactive runs). Same semantics as HDF5Store.
+
+    ``MemoryStore.open_append(store)`` reopens a closed store for writing, as
+    ``HDF5Store.open_append(path)`` reopens a file.
+    """
+
+    def __init__(
+        self, run: _MemoryRun, param_names, blob_names, n_chains, meta, writable: bool = True
+    ) -> None:
+        super().__init__(param_names, blob_names, n_chains, meta, writable)
+        self._run = run
+
+    @classmethod
+    def create(cls, param_names: list[str], blob_names: list[str], n_chains: int, meta: dict) -> MemoryStore:
+        """A new, empty run."""
+        meta = cls._make_meta(param_names, blob_names, n_chains, meta)
+        run = _MemoryRun(int(n_chains), len(param_names), len(blob_names))
+        return cls(run, param_names, blob_names, n_chains, meta)
+
+    @classmethod
+    def open_append(cls, store: MemoryStore) -> MemoryStore:
+        """Reopen ``store``'s run for writing; resume from ``.state``."""
+        return cls(store._run, store.param_names, store.blob_names, store.n_chains, store.meta)
+
+    @classmethod
+    def open_readonly(cls, store: MemoryStore) -> MemoryStore:
+        """A read-only view of ``store``'s run."""
+        return cls(
+            store._run, store.param_names, store.blob_names, store.n_chains, store.meta, writable=False
+        )
+
+    def _read_commit(self) -> tuple[int, int, int]:
+        return self._run.commit
+
+    def _read_rows(self, stop: int) -> tuple[np.ndarray, ...]:
+        return tuple(c[:stop].copy() for c in self._run.cols)
+
+    def _read_state(self, slot: int) -> RunState:
+        d = _loads(self._run.slots[slot])
+        return RunState(d["position"], d["log_prob"], d["blobs"], d["rng_state"], d["extra"], d["arrays"])
+
+    def _write_rows(self, start, chain, log_prob, blobs, accepted) -> None:
+        cols = self._run.cols
+        self._run.cols = [
+            np.concatenate([c[:start], new])
+            for c, new in zip(cols, [chain, log_prob, blobs, accepted], strict=True)
+        ]
+
+    def _write_state(self, slot: int, state: RunState) -> None:
+        self._run.slots[slot] = _dumps(vars(state))
+
+    def _commit(self, n_saved: int, slot: int, generation: int) -> None:
+        self._run.commit = (n_saved, slot, generation)
