@@ -9,6 +9,8 @@ Schema (paths are relative to the TOML file's directory)::
     csv = "../data/reference_case/measurements.csv"   # required
     truth = "../data/reference_case/truth.json"       # optional
     sigma = 0.25                    # required, degC
+    input_sigma = 0.25              # optional, degC: noise of the bottom boundary and initial
+                                    # temperatures, integrated out (default 0: exact, the paper)
     window_hours = [0, 28]          # optional, hours after the first row
     observed_cm = [0, 1, 2, 3, 4]   # optional, default: every sensor above the bottom
     bottom_cm = 5                   # optional, default: the deepest sensor
@@ -63,6 +65,7 @@ DATA_KEYS = (
     "csv",
     "truth",
     "sigma",
+    "input_sigma",
     "window_hours",
     "observed_cm",
     "bottom_cm",
@@ -325,6 +328,7 @@ def _check(where: str, key: str, value: object, kind: str) -> None:
         "table": lambda v: isinstance(v, dict),
         "number": _is_number,
         "number>0": lambda v: _is_number(v) and math.isfinite(v) and v > 0,
+        "number>=0": lambda v: _is_number(v) and math.isfinite(v) and v >= 0,
         "int>=0": lambda v: isinstance(v, int) and not isinstance(v, bool) and v >= 0,
         "int>0": lambda v: isinstance(v, int) and not isinstance(v, bool) and v > 0,
         "numbers": lambda v: isinstance(v, list) and all(_is_number(x) for x in v),
@@ -336,6 +340,7 @@ def _check(where: str, key: str, value: object, kind: str) -> None:
         "table": "a table",
         "number": "a number",
         "number>0": "a number > 0",
+        "number>=0": "a number >= 0",
         "int>=0": "an integer >= 0",
         "int>0": "an integer > 0",
         "numbers": "a list of numbers",
@@ -349,6 +354,7 @@ _DATA_TYPES = {
     "csv": "str",
     "truth": "str",
     "sigma": "number>0",
+    "input_sigma": "number>=0",
     "observed_cm": "numbers",
     "bottom_cm": "number",
     "max_gap_fill": "int>=0",

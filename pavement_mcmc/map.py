@@ -145,7 +145,7 @@ class _Residuals:
         r = np.full((th.shape[0], n_res), 1e6)
         if ok.any():
             with np.errstate(all="ignore"):
-                r[ok] = self.post.residuals(th[ok]).reshape(int(ok.sum()), -1) / self.post.sigma
+                r[ok] = self.post.standardized_residuals(self.post.residuals(th[ok]))
         parts = [r]
         if self.prior_rows:
             j, mu, sd = (np.array(v) for v in zip(*self.prior_rows))

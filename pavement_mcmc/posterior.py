@@ -7,6 +7,10 @@ without being solved, without warnings and without NaN. There is no Python loop 
 
 The first observation row is the initial condition (the solver starts from the sensors' values
 interpolated at t = 0), so it carries no information and is left out of the likelihood.
+
+With ``input_noise`` set (:mod:`pavement_mcmc.input_noise`), the noise of the bottom boundary
+and initial temperatures is integrated out: the residuals are whitened by the resulting
+covariance instead of divided by sigma.
 """
 
 from __future__ import annotations
@@ -35,6 +39,7 @@ class LogPosterior:
         self.obs = model.meas.T_obs[1:]  # (n_obs-1, n_sensors)
         self.sigma = float(model.meas.sigma)
         self.n_data = self.obs.size
+        self.input_noise = None  # an InputNoise, or None: boundary and initial data exact
 
     @property
     def names(self) -> list[str]:
@@ -56,15 +61,28 @@ class LogPosterior:
         """Predicted minus observed temperatures, (n_sets, n_obs - 1, n_sensors), degC."""
         return self.predict(theta)[:, 1:, :] - self.obs
 
+    def standardized_residuals(self, r: np.ndarray) -> np.ndarray:
+        """Whitened residuals (..., n_data) of residual arrays (..., n_obs-1, n_sensors):
+        ``r / sigma``, or ``Sigma^(-1/2) r`` with noisy inputs."""
+        flat = r.reshape(*r.shape[:-2], -1)
+        if self.input_noise is None:
+            return flat / self.sigma
+        return self.input_noise.whiten(flat)
+
     def log_likelihood_from_residuals(self, r: np.ndarray) -> np.ndarray:
         """Gaussian log-likelihood of residual arrays (..., n_obs-1, n_sensors)."""
-        z2 = np.sum((r / self.sigma) ** 2, axis=(-2, -1))
-        return -0.5 * z2 - self.n_data * (np.log(self.sigma) + 0.5 * _LOG_2PI)
+        z2 = np.sum(self.standardized_residuals(r) ** 2, axis=-1)
+        logdet = (self.n_data * np.log(self.sigma**2) if self.input_noise is None
+                  else self.input_noise.logdet)
+        return -0.5 * (z2 + logdet + self.n_data * _LOG_2PI)
 
     def pointwise_log_likelihood(self, theta: np.ndarray) -> np.ndarray:
-        """Log-likelihood of each datum, (n_sets, n_obs - 1, n_sensors) (for ArviZ / LOO)."""
+        """Log-likelihood of each datum, (n_sets, n_obs - 1, n_sensors) (for ArviZ / LOO).
+
+        With noisy inputs, each datum's marginal density (its sd includes the inputs' share)."""
         r = self.residuals(theta)
-        return -0.5 * (r / self.sigma) ** 2 - np.log(self.sigma) - 0.5 * _LOG_2PI
+        sd = self.sigma if self.input_noise is None else self.input_noise.marginal_sd.reshape(r.shape[1:])
+        return -0.5 * (r / sd) ** 2 - np.log(sd) - 0.5 * _LOG_2PI
 
     def __call__(self, theta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         theta = np.atleast_2d(np.asarray(theta, float))

@@ -4,6 +4,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import numpy as np
+
 from .parameters import ParameterSpace
 from .physics import HBasis, Model
 from .posterior import LogPosterior
@@ -44,7 +46,27 @@ def build_problem(cfg, extensions=None, h_spec: dict | None = None) -> Problem:
     gamma0 = float(gamma_prior.get("scale", 2.22))
     model = Model(meas, grid, basis, exts, scheme=grid_cfg.get("scheme", "cn"), gamma0=gamma0)
     space = model.parameter_space().configure(_known(cfg.parameters, model))
-    return Problem(cfg, model, space, LogPosterior(model, space))
+    posterior = LogPosterior(model, space)
+    sigma_in = float(cfg.data.get("input_sigma", 0.0) or 0.0)
+    if sigma_in > 0:
+        attach_input_noise(posterior, sigma_in)
+    return Problem(cfg, model, space, posterior)
+
+
+def attach_input_noise(posterior: LogPosterior, sigma_in: float, theta_ref=None) -> None:
+    """Integrate the noise (sd ``sigma_in``, degC) of the bottom boundary and initial
+    temperatures out of ``posterior``'s likelihood (:mod:`pavement_mcmc.input_noise`), linearised
+    at ``theta_ref`` (default: the MAP with exact inputs, deterministic, so a resumed run gets
+    the same likelihood)."""
+    from .input_noise import InputNoise, input_jacobian
+    from .map import find_map
+
+    posterior.input_noise = None
+    if theta_ref is None:
+        theta_ref = find_map(posterior).theta
+    p = posterior.space.expand(np.atleast_2d(np.asarray(theta_ref, float)))
+    U = input_jacobian(posterior.model, p)
+    posterior.input_noise = InputNoise.from_jacobian(U, posterior.sigma, sigma_in)
 
 
 def _known(section: dict, model: Model) -> dict:
