@@ -11,6 +11,8 @@ Schema (paths are relative to the TOML file's directory)::
     sigma = 0.25                    # required, degC
     input_sigma = 0.25              # optional, degC: noise of the bottom boundary and initial
                                     # temperatures, integrated out (default 0: exact, the paper)
+    T_air_sigma = 0.05              # optional, degC: noise of the air temperature (default 0)
+    q_net_sigma = 2.0               # optional, W m-2: noise of the net radiation (default 0)
     window_hours = [0, 28]          # optional, hours after the first row
     observed_cm = [0, 1, 2, 3, 4]   # optional, default: every sensor above the bottom
     bottom_cm = 5                   # optional, default: the deepest sensor
@@ -66,6 +68,8 @@ DATA_KEYS = (
     "truth",
     "sigma",
     "input_sigma",
+    "T_air_sigma",
+    "q_net_sigma",
     "window_hours",
     "observed_cm",
     "bottom_cm",
@@ -355,6 +359,8 @@ _DATA_TYPES = {
     "truth": "str",
     "sigma": "number>0",
     "input_sigma": "number>=0",
+    "T_air_sigma": "number>=0",
+    "q_net_sigma": "number>=0",
     "observed_cm": "numbers",
     "bottom_cm": "number",
     "max_gap_fill": "int>=0",

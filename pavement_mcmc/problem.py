@@ -47,26 +47,43 @@ def build_problem(cfg, extensions=None, h_spec: dict | None = None) -> Problem:
     model = Model(meas, grid, basis, exts, scheme=grid_cfg.get("scheme", "cn"), gamma0=gamma0)
     space = model.parameter_space().configure(_known(cfg.parameters, model))
     posterior = LogPosterior(model, space)
-    sigma_in = float(cfg.data.get("input_sigma", 0.0) or 0.0)
-    if sigma_in > 0:
-        attach_input_noise(posterior, sigma_in)
+    sigmas = input_sigmas(cfg.data)
+    if any(v > 0 for v in sigmas.values()):
+        attach_input_noise(posterior, sigmas)
     return Problem(cfg, model, space, posterior)
 
 
-def attach_input_noise(posterior: LogPosterior, sigma_in: float, theta_ref=None) -> None:
-    """Integrate the noise (sd ``sigma_in``, degC) of the bottom boundary and initial
-    temperatures out of ``posterior``'s likelihood (:mod:`pavement_mcmc.input_noise`), linearised
-    at ``theta_ref`` (default: the MAP with exact inputs, deterministic, so a resumed run gets
-    the same likelihood)."""
+#: [data] keys of the input noise sds -> the input kinds they cover
+INPUT_SIGMA_KEYS = {"input_sigma": ("bottom", "initial"), "T_air_sigma": ("T_air",),
+                    "q_net_sigma": ("q_net",)}
+
+
+def input_sigmas(data: dict) -> dict[str, float]:
+    """Noise sd per input kind from a [data] section (0 where not given)."""
+    return {kind: float(data.get(key, 0.0) or 0.0)
+            for key, kinds in INPUT_SIGMA_KEYS.items() for kind in kinds}
+
+
+def attach_input_noise(posterior: LogPosterior, sigmas: dict[str, float] | float,
+                       theta_ref=None) -> None:
+    """Integrate the noise of the model's inputs out of ``posterior``'s likelihood
+    (:mod:`pavement_mcmc.input_noise`). ``sigmas``: sd per input kind (a number: the bottom
+    and initial temperatures). Linearised at ``theta_ref`` (default: the MAP with exact inputs,
+    deterministic, so a resumed run gets the same likelihood)."""
     from .input_noise import InputNoise, input_jacobian
     from .map import find_map
 
+    if not isinstance(sigmas, dict):
+        sigmas = {"bottom": float(sigmas), "initial": float(sigmas)}
+    sigmas = {k: float(v) for k, v in sigmas.items() if v > 0}
     posterior.input_noise = None
+    if not sigmas:
+        return
     if theta_ref is None:
         theta_ref = find_map(posterior).theta
     p = posterior.space.expand(np.atleast_2d(np.asarray(theta_ref, float)))
-    U = input_jacobian(posterior.model, p)
-    posterior.input_noise = InputNoise.from_jacobian(U, posterior.sigma, sigma_in)
+    U = input_jacobian(posterior.model, p, kinds=tuple(sigmas))
+    posterior.input_noise = InputNoise.from_jacobian(U, posterior.sigma, sigmas)
 
 
 def _known(section: dict, model: Model) -> dict:

@@ -36,35 +36,46 @@ def _true_theta(post):
 
 
 def test_jacobian_predicts_the_response_to_perturbed_inputs():
-    """The conduction model is linear in its boundary and initial data: U eps must reproduce
-    an actual solve with every input perturbed at random (bottom series incl. t = 0, initial
-    readings) to round-off, and fail if a column were misplaced."""
+    """The conduction model is linear in its boundary, initial and surface data: U eps must
+    reproduce an actual solve with every input perturbed at random (bottom series incl. t = 0,
+    initial readings, air temperature, net radiation) to round-off, and fail if a column were
+    misplaced."""
+    from dataclasses import replace
+
     post = _twin(1)
     model, meas = post.model, post.meas
     p = post.space.expand(_true_theta(post))
     U = input_jacobian(model, p)
     n_obs, n_s = meas.n_obs, meas.n_sensors
-    assert U.shape == ((n_obs - 1) * n_s, n_obs + n_s)
-    eps = 0.3 * np.random.default_rng(0).standard_normal(n_obs + n_s)
+    assert {k: v.shape[1] for k, v in U.items()} == {"bottom": n_obs, "initial": n_s,
+                                                     "T_air": n_obs, "q_net": n_obs}
+    rng = np.random.default_rng(0)
+    eps = {k: (5.0 if k == "q_net" else 0.3) * rng.standard_normal(v.shape[1]) for k, v in U.items()}
     base = model.forcing
     depths = np.append(meas.depths, meas.bottom_depth)
-    Tb = base.T_bottom + eps[:n_obs]
-    T0 = np.interp(model.grid.x, depths, np.append(meas.T_obs[0] + eps[n_obs:], Tb[0]))
-    T = solve(model.grid, Forcing(base.T_air, Tb, T0), model.coefficients(p), scheme=model.scheme)
+    Tb = base.T_bottom + eps["bottom"]
+    T0 = np.interp(model.grid.x, depths, np.append(meas.T_obs[0] + eps["initial"], Tb[0]))
+    c = model.coefficients(p)
+    c = replace(c, q=c.q + eps["q_net"][None, :])
+    T = solve(model.grid, Forcing(base.T_air + eps["T_air"], Tb, T0), c, scheme=model.scheme)
     moved = model.observe(T, p)[0, 1:].ravel() - post.predict(_true_theta(post))[0, 1:].ravel()
-    np.testing.assert_allclose(U @ eps, moved, atol=1e-9)
+    np.testing.assert_allclose(sum(U[k] @ eps[k] for k in U), moved, atol=1e-9)
     assert np.abs(moved).max() > 0.1  # the inputs matter
-    # the deeper the sensor, the more it follows the 5 cm boundary
-    share = np.sum(U[:, :n_obs] ** 2, axis=1).reshape(n_obs - 1, n_s).mean(axis=0)
-    assert np.all(np.diff(share) > 0) and share[-1] > 2 * share[0]
+    # the deeper the sensor, the more it follows the 5 cm boundary and the less the air
+    share = {k: np.sum(U[k] ** 2, axis=1).reshape(n_obs - 1, n_s).mean(axis=0) for k in U}
+    assert np.all(np.diff(share["bottom"]) > 0) and share["bottom"][-1] > 2 * share["bottom"][0]
+    assert np.all(np.diff(share["T_air"]) < 0)
+    with pytest.raises(ValueError, match="valid"):
+        input_jacobian(model, p, kinds=("wind",))
 
 
 def test_whitening_matches_the_dense_covariance():
     rng = np.random.default_rng(1)
     n, k, sigma, sigma_in = 60, 9, 0.25, 0.3
     U = rng.standard_normal((n, k)) * 0.5
-    noise = InputNoise.from_jacobian(U, sigma, sigma_in)
-    Sigma = sigma**2 * np.eye(n) + sigma_in**2 * U @ U.T
+    V = rng.standard_normal((n, 3)) * 0.5
+    noise = InputNoise.from_jacobian({"bottom": U, "q_net": V}, sigma, {"bottom": sigma_in, "q_net": 2.0})
+    Sigma = sigma**2 * np.eye(n) + sigma_in**2 * U @ U.T + 4.0 * V @ V.T
     r = rng.standard_normal((4, n))
     z = noise.whiten(r)
     np.testing.assert_allclose(np.sum(z * z, axis=1),
@@ -72,7 +83,7 @@ def test_whitening_matches_the_dense_covariance():
     np.testing.assert_allclose(noise.logdet, np.linalg.slogdet(Sigma)[1], rtol=1e-12)
     np.testing.assert_allclose(noise.marginal_sd, np.sqrt(np.diag(Sigma)), rtol=1e-12)
     with pytest.raises(ValueError):
-        InputNoise.from_jacobian(U, 0.0, 0.3)
+        InputNoise.from_jacobian({"bottom": U}, 0.0, {"bottom": 0.3})
 
 
 def test_likelihood_with_zero_input_noise_is_the_independent_one():
