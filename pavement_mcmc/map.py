@@ -145,7 +145,9 @@ class _Residuals:
         r = np.full((th.shape[0], n_res), 1e6)
         if ok.any():
             with np.errstate(all="ignore"):
-                r[ok] = self.post.standardized_residuals(self.post.residuals(th[ok]))
+                res = self.post.residuals(th[ok])
+                std = getattr(self.post, "standardized_residuals", None)  # input noise, if any
+                r[ok] = std(res) if std else res.reshape(int(ok.sum()), -1) / self.post.sigma
         parts = [r]
         if self.prior_rows:
             j, mu, sd = (np.array(v) for v in zip(*self.prior_rows))
