@@ -216,8 +216,10 @@ def run_sampler(
             state.extra["loop"] = {"n_steps": n_steps, "n_evals": n_evals, "n_adapt": n_adapt,
                                    "thin": thin}
             store.flush(state)
-            # aim for blocks of ~block_seconds
-            block = int(np.clip(todo * block_seconds / max(dt, 1e-3), thin, 5000)) // thin * thin
+            # aim for blocks of ~block_seconds, but at most a quarter of the time so far, so a
+            # short run is not overshot by a long block before its first check
+            target = min(block_seconds, max(0.1, 0.25 * (time.perf_counter() - t0)))
+            block = int(np.clip(todo * target / max(dt, 1e-4), thin, 5000)) // thin * thin
             block = max(block, thin)
             since_check += dt
             if not adapt and n_steps >= n_adapt and since_check >= CHECK_COST_RATIO * check_cost:
