@@ -61,18 +61,21 @@ def make_case(tmp_path, effect: str | None, seed: int, strength: float = 1.0):
     return load_case(d / "case.toml")
 
 
-def true_rmse(cfg, effect: str | None) -> float:
-    """RMSE of the true model at the true parameters (true h per interval) on the data."""
+def true_rmse(cfg, effect: str | list[str] | None) -> float:
+    """RMSE of the true model at the true parameters (true h per interval) on the data.
+
+    ``effect``: the hidden effect, a list of them, or None.
+    """
     truth = json.loads(cfg.truth_path.read_text())
-    exts = [] if effect is None else [effect]
+    exts = [] if effect is None else [effect] if isinstance(effect, str) else list(effect)
     pb = build_problem(cfg, extensions=exts, h_spec={"kind": "per_interval", "smooth": False})
     vals = {k: float(v[0]) for k, v in pb.space.values().items()}
     vals.update(kappa=truth["kappa"], C=truth["C"])
     h = np.asarray(truth["h_true_obs"])
     if not pb.model.replaces_h:
         vals.update(zip(pb.model.h_basis.names, 0.5 * (h[1:] + h[:-1]), strict=True))
-    if effect is not None:
-        vals.update(truth["effects"][effect])
+    for e in exts:
+        vals.update(truth["effects"][e])
     p = {k: np.array([v]) for k, v in vals.items()}
     r = pb.model.predict(p)[0, 1:] - pb.meas.T_obs[1:]
     return float(np.sqrt(np.mean(r**2)))

@@ -7,6 +7,7 @@ TOML (the model is fitted by MAP first, useful before any sampling).
 from __future__ import annotations
 
 import argparse
+import json
 from pathlib import Path
 
 from .common import add_json_flag, emit
@@ -96,12 +97,13 @@ def _text(dx, how: str, label: str) -> str:
         return "\n".join(lines)
     lines += [
         "",
-        "Candidates (score S = penalised misfit drop, autocorrelation-aware BIC; S > 10: detected):",
+        "Candidates (score S = penalised misfit drop, autocorrelation-aware BIC; * detected: S > 10; "
+        "~ prior-driven: S > 10 mostly through Δprior, data part S - Δprior <= 10, not claimed):",
         f"  {'#':<3}{'candidate':<26}{'S':>8}{'Δχ²':>9}{'Δprior':>8}{'+params':>8}"
         f"{'RMSE':>7}{'/σ':>6}  {'':<4}",
     ]
     for i, e in enumerate(rk.entries, 1):
-        mark = "*" if e.detected else " "
+        mark = "*" if e.detected else "~" if e.prior_driven else " "
         lines.append(
             f"{mark} {i:<3}{e.name:<26}{e.score:8.1f}{e.delta_chi2:9.1f}"
             f"{e.delta_prior:8.1f}{e.added_params:8.2f}{e.rmse:7.3f}{e.rmse_sigma:6.2f}"
@@ -116,10 +118,17 @@ def _text(dx, how: str, label: str) -> str:
         lines.append(f"  (not tried: {k}: {why})")
     lines += ["", rk.verdict]
     if rk.best is not None and rk.best.name != "finer_h":
-        lines.append(
-            f"Next: pavement-mcmc fit <case.toml> --add {rk.best.name} --out <new run>, "
-            "then pavement-mcmc compare <this run> <new run>"
-        )
+        order = [e.name for e in rk.best.fit.problem.model.extensions]
+        if order[-1] != rk.best.name:  # it must come before the model's other extensions
+            lines.append(
+                f"Next: set [model] extensions = {json.dumps(order)} in the case file (in this order), refit "
+                "with pavement-mcmc fit, then pavement-mcmc compare <this run> <new run>"
+            )
+        else:
+            lines.append(
+                f"Next: pavement-mcmc fit <case.toml> --add {rk.best.name} --out <new run>, "
+                "then pavement-mcmc compare <this run> <new run>"
+            )
     return "\n".join(lines)
 
 

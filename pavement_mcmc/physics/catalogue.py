@@ -99,7 +99,9 @@ class SensorDepth(Extension):
         obs_t = np.arange(T_nodes.shape[1])[None, :, None]
         Tl = T_nodes[rows, obs_t, i[:, None, :]]
         Tr = T_nodes[rows, obs_t, i[:, None, :] + 1]
-        return Tl * (1.0 - w[:, None, :]) + Tr * w[:, None, :]
+        shifted = Tl * (1.0 - w[:, None, :]) + Tr * w[:, None, :]
+        # add the depth change to what the earlier hooks made (e.g. sensor_bias), not replace it
+        return pred + shifted - model.observe_nominal(T_nodes)
 
 
 @register_extension

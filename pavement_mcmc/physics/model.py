@@ -123,10 +123,15 @@ class Model:
         """Nodal temperatures, shape (n_sets, n_obs, n_nodes), degC."""
         return solve(self.grid, self.forcing, self.coefficients(p), scheme=self.scheme)
 
-    def observe(self, T_nodes: np.ndarray, p: dict[str, np.ndarray]) -> np.ndarray:
-        """Sensor predictions (n_sets, n_obs, n_sensors) from nodal temperatures."""
+    def observe_nominal(self, T_nodes: np.ndarray) -> np.ndarray:
+        """Temperatures at the sensors' nominal depths (n_sets, n_obs, n_sensors)."""
         i, w = self._obs_i, self._obs_w
-        pred = T_nodes[..., i] * (1.0 - w) + T_nodes[..., i + 1] * w
+        return T_nodes[..., i] * (1.0 - w) + T_nodes[..., i + 1] * w
+
+    def observe(self, T_nodes: np.ndarray, p: dict[str, np.ndarray]) -> np.ndarray:
+        """Sensor predictions (n_sets, n_obs, n_sensors) from nodal temperatures: the nominal
+        depths, then every extension's ``observe`` hook in order."""
+        pred = self.observe_nominal(T_nodes)
         for ext in self.extensions:
             pred = ext.observe(pred, T_nodes, p, self)
         return pred

@@ -1,0 +1,92 @@
+"""radiation_factor: what ``diagnose`` can and cannot say about a radiometer error.
+
+A factor on the recorded net radiation is exactly confounded with a common scale of kappa, C and
+h(t): only the priors on kappa and C can reveal it.
+
+- Loose priors (+-5 %, centred 3 % off the truth, as in the detection matrix): the data part of
+  its score stays small; the ranking must not claim it. Where its total score passes the
+  threshold through the prior part (measured: rad_factor 1.15, seeds 2 and 4: S 14.5 and 15.9, of
+  which 10.8 and 11.8 from the priors) the entry is *prior-driven* and the verdict says so.
+- Tight, correct priors (1 % at the truth) and h(t) in 1 h pieces: rad_factor 1.15 is ranked
+  first (measured S 65-89 on seeds 1-5, fitted factor 1.15-1.18); 0.85 only on 3 of 5 seeds
+  (S 15-30; seed 2: S 8, nothing claimed; seed 3: two_layer wins a look-alike tie). A coarser
+  h(t) does not help: with 7 or 3 pieces ``finer_h`` ranks first, and radiation_factor then
+  scores high on clean data too (it soaks up the h(t) misfit).
+"""
+
+from __future__ import annotations
+
+import pytest
+from test_hidden_effects import CASE
+
+from pavement_mcmc.config import load_case
+from pavement_mcmc.criticism import diagnose, refit
+from pavement_mcmc.problem import build_problem
+from pavement_mcmc.synthetic import SyntheticSpec, write_case
+
+TIGHT = (
+    CASE.format(kappa=1.31, C=0.99e6)
+    .replace("sd = 0.07", "sd = 0.0131")
+    .replace("sd = 0.05e6", "sd = 0.0099e6")
+)
+LOOSE = CASE.format(kappa=1.35, C=1.02e6)
+
+
+def ranking(tmp_path, rad_factor: float | None, seed: int, priors: str):
+    d = tmp_path / f"rad_{rad_factor}_{seed}"
+    if not (d / "measurements.csv").exists():
+        effects = {} if rad_factor is None else {"radiation_factor": {"rad_factor": rad_factor}}
+        write_case(SyntheticSpec(seed=seed, sigma=0.2, effects=effects), d)
+    (d / f"{priors}.toml").write_text(TIGHT if priors == "tight" else LOOSE)
+    problem = build_problem(load_case(d / f"{priors}.toml"))
+    rk = diagnose(problem, refit(problem).values()).ranking
+    rad = next(e for e in rk.entries if e.name == "radiation_factor")
+    return rk, rad
+
+
+def assert_not_claimed(rk, rad):
+    assert not rad.detected and (rk.best is None or rk.best.name != "radiation_factor"), rk.verdict
+    assert rad.data_score <= rad.threshold, rad  # the data alone do not see it
+    if rad.score > rad.threshold:
+        assert rad.prior_driven and "Not claimed: radiation_factor" in rk.verdict, rk.verdict
+
+
+def test_radiation_factor_loose_priors_is_not_claimed_tight_priors_detect_it(tmp_path):
+    # loose priors: S passes 10 only through the prior part (the old rule claimed it here)
+    rk, rad = ranking(tmp_path, 1.15, seed=2, priors="loose")
+    assert rad.score > rad.threshold and rad.delta_prior > 0.5 * rad.score, rad
+    assert_not_claimed(rk, rad)
+    assert rad.to_dict()["prior_driven"] is True
+    # the same data with tight, correct kappa and C priors: detected from the data, ranked first
+    rk, rad = ranking(tmp_path, 1.15, seed=2, priors="tight")
+    assert rk.best is rad and rk.entries[0] is rad, rk.verdict
+    assert rad.data_score > rad.threshold and not rad.prior_driven, rad
+    assert rad.values["rad_factor"] == pytest.approx(1.15, abs=0.05)
+    assert "Caveat" in rk.verdict and "priors on kappa and C" in rk.verdict
+
+
+def test_radiation_factor_no_false_claim_with_tight_correct_priors(tmp_path):
+    rk, rad = ranking(tmp_path, None, seed=2, priors="tight")
+    assert rk.best is None, rk.verdict
+    assert not rad.detected
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("seed", [1, 2, 3, 4, 5])
+def test_radiation_factor_matrix(tmp_path, request, seed):
+    for factor in (0.85, 1.15):  # loose priors: never claimed
+        assert_not_claimed(*ranking(tmp_path, factor, seed, "loose"))
+    rk, rad = ranking(tmp_path, 1.15, seed, "tight")  # tight, correct priors: ranked first
+    assert rk.best is rad, rk.verdict
+    rk, rad = ranking(tmp_path, None, seed, "tight")  # and no false claim on clean data
+    assert rk.best is None, rk.verdict
+    if seed in (2, 3):
+        request.applymarker(
+            pytest.mark.xfail(
+                reason="rad_factor 0.85 with tight priors: ranked first on 3 of 5 seeds "
+                "(seed 2: S 8; seed 3: two_layer wins a look-alike tie)",
+                strict=True,
+            )
+        )
+    rk, rad = ranking(tmp_path, 0.85, seed, "tight")
+    assert rk.best is rad, rk.verdict
