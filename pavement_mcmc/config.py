@@ -13,6 +13,7 @@ Schema (paths are relative to the TOML file's directory)::
                                     # temperatures, integrated out (default 0: exact, the paper)
     T_air_sigma = 0.05              # optional, degC: noise of the air temperature (default 0)
     q_net_sigma = 2.0               # optional, W m-2: noise of the net radiation (default 0)
+    q_net_rel_sigma = 0.01          # optional: plus this fraction of the reading (default 0)
     window_hours = [0, 28]          # optional, hours after the first row
     observed_cm = [0, 1, 2, 3, 4]   # optional, default: every sensor above the bottom
     bottom_cm = 5                   # optional, default: the deepest sensor
@@ -70,6 +71,7 @@ DATA_KEYS = (
     "input_sigma",
     "T_air_sigma",
     "q_net_sigma",
+    "q_net_rel_sigma",
     "window_hours",
     "observed_cm",
     "bottom_cm",
@@ -361,6 +363,7 @@ _DATA_TYPES = {
     "input_sigma": "number>=0",
     "T_air_sigma": "number>=0",
     "q_net_sigma": "number>=0",
+    "q_net_rel_sigma": "number>=0",
     "observed_cm": "numbers",
     "bottom_cm": "number",
     "max_gap_fill": "int>=0",

@@ -64,11 +64,13 @@ class InputNoise:
     @classmethod
     def from_jacobian(cls, U: dict[str, np.ndarray], sigma: float,
                       sigmas: dict[str, float]) -> InputNoise:
-        """Independent input errors, sd ``sigmas[kind]`` for the columns ``U[kind]``:
+        """Independent input errors, sd ``sigmas[kind]`` (a number, or one per column) for the
+        columns ``U[kind]``:
         ``Sigma = sigma^2 I + sum_k sigmas[k]^2 U_k U_k^T``."""
-        if not sigma > 0 or any(not v >= 0 for v in sigmas.values()):
+        if not sigma > 0 or any(not np.all(np.asarray(v) >= 0) for v in sigmas.values()):
             raise ValueError(f"need sigma > 0 and input sds >= 0; got {sigma}, {sigmas}")
-        F = np.concatenate([sigmas[k] * np.asarray(U[k], float) for k in sigmas], axis=1)
+        F = np.concatenate([np.asarray(sigmas[k], float) * np.asarray(U[k], float) for k in sigmas],
+                           axis=1)
         return cls.from_factor(F, sigma, dict(sigmas))
 
     @classmethod

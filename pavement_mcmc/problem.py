@@ -47,8 +47,8 @@ def build_problem(cfg, extensions=None, h_spec: dict | None = None) -> Problem:
     model = Model(meas, grid, basis, exts, scheme=grid_cfg.get("scheme", "cn"), gamma0=gamma0)
     space = model.parameter_space().configure(_known(cfg.parameters, model))
     posterior = LogPosterior(model, space)
-    sigmas = input_sigmas(cfg.data)
-    if any(v > 0 for v in sigmas.values()):
+    sigmas = input_sigmas(cfg.data, meas)
+    if any(np.any(v > 0) for v in sigmas.values()):
         attach_input_noise(posterior, sigmas)
     return Problem(cfg, model, space, posterior)
 
@@ -58,24 +58,30 @@ INPUT_SIGMA_KEYS = {"input_sigma": ("bottom", "initial"), "T_air_sigma": ("T_air
                     "q_net_sigma": ("q_net",)}
 
 
-def input_sigmas(data: dict) -> dict[str, float]:
-    """Noise sd per input kind from a [data] section (0 where not given)."""
-    return {kind: float(data.get(key, 0.0) or 0.0)
-            for key, kinds in INPUT_SIGMA_KEYS.items() for kind in kinds}
+def input_sigmas(data: dict, meas=None) -> dict:
+    """Noise sd per input kind from a [data] section (0 where not given). With ``meas`` and
+    ``q_net_rel_sigma`` (a fraction of the reading, as radiometers are specified), the q_net sd
+    is per reading: ``sqrt(q_net_sigma^2 + (q_net_rel_sigma q_net)^2)``."""
+    out = {kind: float(data.get(key, 0.0) or 0.0)
+           for key, kinds in INPUT_SIGMA_KEYS.items() for kind in kinds}
+    rel = float(data.get("q_net_rel_sigma", 0.0) or 0.0)
+    if rel > 0 and meas is not None:
+        out["q_net"] = np.sqrt(out["q_net"] ** 2 + (rel * np.asarray(meas.q_net, float)) ** 2)
+    return out
 
 
 def attach_input_noise(posterior: LogPosterior, sigmas: dict[str, float] | float,
                        theta_ref=None) -> None:
     """Integrate the noise of the model's inputs out of ``posterior``'s likelihood
-    (:mod:`pavement_mcmc.input_noise`). ``sigmas``: sd per input kind (a number: the bottom
-    and initial temperatures). Linearised at ``theta_ref`` (default: the MAP with exact inputs,
+    (:mod:`pavement_mcmc.input_noise`). ``sigmas``: sd per input kind, a number or one per
+    column of that kind (a single number: the bottom and initial temperatures). Linearised at ``theta_ref`` (default: the MAP with exact inputs,
     deterministic, so a resumed run gets the same likelihood)."""
     from .input_noise import InputNoise, input_jacobian
     from .map import find_map
 
     if not isinstance(sigmas, dict):
         sigmas = {"bottom": float(sigmas), "initial": float(sigmas)}
-    sigmas = {k: float(v) for k, v in sigmas.items() if v > 0}
+    sigmas = {k: v for k, v in sigmas.items() if np.any(np.asarray(v) > 0)}
     posterior.input_noise = None
     if not sigmas:
         return
