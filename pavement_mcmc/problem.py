@@ -74,8 +74,9 @@ def attach_input_noise(posterior: LogPosterior, sigmas: dict[str, float] | float
                        theta_ref=None) -> None:
     """Integrate the noise of the model's inputs out of ``posterior``'s likelihood
     (:mod:`pavement_mcmc.input_noise`). ``sigmas``: sd per input kind, a number or one per
-    column of that kind (a single number: the bottom and initial temperatures). Linearised at ``theta_ref`` (default: the MAP with exact inputs,
-    deterministic, so a resumed run gets the same likelihood)."""
+    column of that kind (a single number: the bottom and initial temperatures). Linearised at
+    ``theta_ref`` (default: the MAP with exact inputs, deterministic, so a resumed run gets the
+    same likelihood)."""
     from .input_noise import InputNoise, input_jacobian
     from .map import find_map
 
