@@ -171,7 +171,10 @@ def test_reference_case_c_covers_kappa_and_c(noisy_inputs):
 @pytest.mark.xfail(strict=False, reason=(
     "measured 2026-11-21 with the inputs' noise integrated out: h coverage 84 % < 90 %; the 17 "
     "missed pieces are the first 4 h (truth 16.6 -> 10.2, 95 % intervals ~[2, 11.6]) plus h_64 "
-    "(11.57 vs [11.64, 12.97]); kappa and C are covered"))
+    "(11.57 vs [11.64, 12.97]); kappa and C are covered. The night-time data barely inform h "
+    "(on a twin, putting the true early h into the posterior mean costs 0.7 in log-likelihood), "
+    "so the first-order smoothness prior sets it and prefers a flat start; the true early trend "
+    "costs ~8 nats under the estimated gamma ~5"))
 def test_reference_case_c_covers_90_percent_of_h():
     _, h_cov = _case_c_intervals(NOISY_INPUTS)
     assert h_cov >= 0.9
@@ -216,7 +219,9 @@ def test_case_c_twins_cover_kappa_and_c(case_c_twins):
 
 @pytest.mark.xfail(strict=False, reason=(
     "measured 2026-11-21: mean h coverage 89.7 % over the 8 twins (0.85-0.97 each), just under "
-    "the 90 % asked (nominal 95 %); kappa 6/8, C 7/8"))
+    "the 90 % asked (nominal 95 %); kappa 6/8, C 7/8. Every twin misses the first 3-4 h of h: "
+    "prior-dominated (see test_reference_case_c_covers_90_percent_of_h); with the true initial "
+    "profile instead of the interpolated one the same pieces are missed"))
 def test_case_c_twins_cover_90_percent_of_h(case_c_twins):
     h = float(np.mean([t["h"] for t in case_c_twins]))
     print(f"Case C twins: mean h coverage {h:.2%}")
