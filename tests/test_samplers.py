@@ -105,6 +105,23 @@ def test_resume_is_bit_for_bit(kind):
         np.testing.assert_array_equal(getattr(A, field), getattr(B, field))
 
 
+@pytest.mark.parametrize("kind", ["fast", "emcee"])
+def test_stopping_point_does_not_depend_on_block_timing(kind):
+    """Checks run at fixed step counts: with blocks of very different wall-clock length the
+    run stops at the same step with the same chain (the stopping rule on a real target)."""
+    post = LinearGaussian(seed=4)
+    out = []
+    for block_seconds in (1e-4, 5.0):
+        s = _prepared(kind, post, seed=11)
+        st = _store(post, s.n_chains)
+        res = run_sampler(s, st, ess_target=300, max_steps=20_000, n_adapt=50,
+                          block_seconds=block_seconds)
+        assert res.converged, res.reason
+        out.append((res.n_steps, st.read().chain))
+    assert out[0][0] == out[1][0]
+    np.testing.assert_array_equal(out[0][1], out[1][1])
+
+
 def test_gamma_gibbs_draw_is_exact():
     """The rejection draw of gamma | h matches its density gamma^{(N+1)/2} exp(-g S/2 - (g/g0)^2/2)."""
     N, g0 = 20, 2.22

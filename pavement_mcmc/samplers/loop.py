@@ -10,10 +10,12 @@ Rule (checked after every block once adaptation is over):
   least ``min_tau_lengths`` (50) integrated autocorrelation times long, every split-R-hat is
   below ``rhat_max`` (1.01) and the mean log-posterior is not drifting
   (:func:`~pavement_mcmc.diagnostics.is_drifting`);
-* the check runs after a block only when the sampling since the previous check took at least
-  :data:`CHECK_COST_RATIO` times that check's cost (diagnostics stay a small fraction of the
-  wall time on long, high-dimensional runs), and stops at the first failing criterion; a run
-  stopped by a budget gets one full check at the end;
+* the checks run at step counts fixed in advance (:data:`CHECK_FIRST`, :data:`CHECK_GROWTH`:
+  a geometric schedule, so a run with a given seed stops at the same step on any machine and
+  the diagnostics stay a small share of a long run's time); a check is skipped while the kept
+  chain is shorter than :data:`SKIP_FRACTION` of the length the last check's tau requires;
+  each stops at the first failing criterion; a run stopped by a budget gets one full check at
+  the end;
 * otherwise the run stops when ``max_steps`` (counted over the whole run, resumes included) or
   ``max_seconds`` (this invocation) runs out, with ``converged=False`` and the reason.
 
@@ -38,9 +40,11 @@ from .base import Sampler
 
 #: default adaptation length per sampler (steps), as a function of the dimension
 #: rows (after thinning) on which a convergence check estimates tau and split-R-hat
-TAU_ROWS, RHAT_ROWS = 2000, 1000
-#: a check runs only when the sampling since the previous one took >= this many times its cost
-CHECK_COST_RATIO = 4.0
+TAU_ROWS, RHAT_ROWS = 1000, 500
+#: checks at fixed step counts: CHECK_FIRST steps after the adaptation, then whenever the step
+#: count has grown by CHECK_GROWTH (at least CHECK_FIRST steps later), so where a run stops
+#: depends on its seed only, never on the machine's speed, and the checks cost a bounded share
+CHECK_FIRST, CHECK_GROWTH, SKIP_FRACTION = 20, 1.15, 0.7
 
 DEFAULT_ADAPT = {"fast": lambda d: max(150, 10 * d), "mh": lambda d: max(2000, 50 * d),
                  "emcee": lambda d: 0}
@@ -88,53 +92,89 @@ class Check:
     failures: list
 
 
-def check_convergence(chain: np.ndarray, logp: np.ndarray, accepted: np.ndarray, n_adapt_rows: int,
+def check_convergence(chain, logp: np.ndarray, accepted: np.ndarray, n_adapt_rows: int,
                       burn_in: int | None = None, ess_target: float = 1000.0,
                       min_tau_lengths: float = 50.0, rhat_max: float = 1.01,
                       names: list[str] | None = None, full: bool = True) -> Check:
     """Apply the stopping rule to stored rows (see the module docstring).
 
+    ``chain``: (n_rows, n_chains, n_params) array, or the loop's block list (:class:`Rows`).
     The estimates use the kept chain thinned to at most :data:`TAU_ROWS` rows (tau, ESS, drift)
     and :data:`RHAT_ROWS` rows (split-R-hat; the rank normalisation sorts every draw), which
     keeps a check cheap next to the sampling. With ``full=False`` the check stops at the
     first failing criterion in the order ESS / length (cheap), drift, R-hat (the costly one):
     the run loop uses that while the chain is still short; unevaluated R-hats are ``nan``.
     """
+    take = chain.take if isinstance(chain, Rows) else (lambda idx: chain[idx])
     if burn_in is None:
         rest = logp[n_adapt_rows:]
         extra = dg.choose_burn_in(rest) if rest.shape[0] >= 20 else 0
         burn_in = n_adapt_rows + extra
-    kept = chain[burn_in:]
-    p = chain.shape[2]
+    n_kept = logp.shape[0] - burn_in
+    first = take(np.arange(1))
+    m, p = first.shape[1], first.shape[2]
     names = names or [f"p{i}" for i in range(p)]
-    if kept.shape[0] < 8:
+    if n_kept < 8:
         return Check(burn_in, np.zeros(p), np.full(p, np.inf), np.full(p, np.inf), float("nan"),
-                     False, [f"only {kept.shape[0]} kept steps"])
-    k = max(1, kept.shape[0] // TAU_ROWS)
-    tau = dg.integrated_time(kept[::k], tol=0, quiet=True) * k
-    ess = kept.shape[0] * kept.shape[1] / tau
+                     False, [f"only {max(n_kept, 0)} kept steps"])
+    k = max(1, n_kept // TAU_ROWS)
+    tau = dg.integrated_time(take(np.arange(burn_in, logp.shape[0], k)), tol=0, quiet=True) * k
+    ess = n_kept * m / tau
     acc = float(np.mean(accepted[burn_in:]))
     fails = []
     if not np.all(ess >= ess_target):
         fails.append(f"ESS {ess.min():.0f} < {ess_target:g} ({names[int(np.argmin(ess))]})")
-    if not kept.shape[0] >= min_tau_lengths * np.max(tau):
-        fails.append(f"kept chain {kept.shape[0]} < {min_tau_lengths:g} x tau_max {np.max(tau):.1f}")
+    if not n_kept >= min_tau_lengths * np.max(tau):
+        fails.append(f"kept chain {n_kept} < {min_tau_lengths:g} x tau_max {np.max(tau):.1f}")
     drifting = dg.is_drifting(logp[burn_in:][::k])
     if drifting:
         fails.append("log-posterior still drifting")
     rhat = np.full(p, np.nan)
     if full or not fails:
-        rhat = dg.split_rhat(kept[:: max(1, kept.shape[0] // RHAT_ROWS)])
+        kr = max(1, n_kept // RHAT_ROWS)
+        rhat = dg.split_rhat(take(np.arange(burn_in, logp.shape[0], kr)))
         if not np.all(rhat < rhat_max):
             fails.append(f"R-hat {np.nanmax(rhat):.3f} >= {rhat_max}")
     return Check(burn_in, ess, tau, rhat, acc, drifting, fails)
 
 
-def _merged(rows: list) -> tuple:
-    """Concatenate the (chain, logp, accepted) blocks in place (one block left) and return it."""
-    if len(rows) > 1:
-        rows[:] = [tuple(np.concatenate([r[i] for r in rows]) for i in range(3))]
-    return rows[0]
+def _round_up(n: float, thin: int) -> int:
+    return int(-(-int(np.ceil(n)) // thin) * thin)
+
+
+class Rows:
+    """The rows stored so far as a list of blocks: a check gathers only the (thinned) rows it
+    uses instead of copying the whole chain (gigabytes on a long Case C run)."""
+
+    def __init__(self):
+        self.blocks: list[np.ndarray] = []
+        self.starts: list[int] = []
+        self.n = 0
+        self._logp: list[np.ndarray] = []
+        self._acc: list[np.ndarray] = []
+
+    def add(self, chain: np.ndarray, logp: np.ndarray, accepted: np.ndarray) -> None:
+        if chain.shape[0]:
+            self.blocks.append(chain)
+            self.starts.append(self.n)
+            self.n += chain.shape[0]
+            self._logp.append(logp)
+            self._acc.append(accepted)
+
+    def small(self) -> tuple[np.ndarray, np.ndarray]:
+        """(log_prob, accepted) of every row, concatenated (cached as one block)."""
+        for lst in (self._logp, self._acc):
+            if len(lst) > 1:
+                lst[:] = [np.concatenate(lst)]
+        return self._logp[0], self._acc[0]
+
+    def take(self, idx: np.ndarray) -> np.ndarray:
+        """Chain rows at increasing global indices ``idx``."""
+        idx = np.asarray(idx, int)
+        bounds = np.searchsorted(idx, [*self.starts, self.n])
+        parts = [blk[idx[a:b] - s] for blk, s, a, b in zip(self.blocks, self.starts, bounds[:-1],
+                                                             bounds[1:]) if b > a]
+        return np.concatenate(parts) if parts else self.blocks[0][:0]
 
 
 def run_sampler(
@@ -173,7 +213,9 @@ def run_sampler(
     burn_rows = None if burn_in is None else -(-int(burn_in) // thin)
 
     data = store.read() if store.n_saved else None
-    rows = [] if data is None else [(data.chain, data.log_prob, data.accepted)]
+    rows = Rows()
+    if data is not None:
+        rows.add(data.chain, data.log_prob, data.accepted)
     st = store.state
     loop_state = dict(st.extra.get("loop", {})) if st is not None else {}
     n_steps = int(loop_state.get("n_steps", 0))
@@ -189,7 +231,10 @@ def run_sampler(
     check = None
     reason = ""
     converged = False
-    check_cost = since_check = 0.0  # seconds: last check, sampling since then
+    next_check = int(loop_state.get("next_check", _round_up(n_adapt + CHECK_FIRST, thin)))
+    # a kept chain shorter than SKIP_FRACTION x min_tau_lengths x (last tau_max) cannot pass:
+    # such a check is skipped (the skip depends on the chain only, so runs stay reproducible)
+    hint = loop_state.get("hint", [0, 0.0])  # [burn-in rows, tau_max] of the last check
     try:
         while True:
             if n_steps >= max_steps:
@@ -202,6 +247,8 @@ def run_sampler(
             todo = min(block, max_steps - n_steps)
             if adapt:
                 todo = min(todo, n_adapt - n_steps)
+            if n_steps < next_check:  # end the block on the check point
+                todo = min(todo, next_check - n_steps)
             todo = max(thin, todo // thin * thin)
             tb = time.perf_counter()
             b = sampler.step(todo, adapt=adapt)
@@ -211,22 +258,27 @@ def run_sampler(
                 store.append(th, lp, bl, acc)
             n_steps += todo
             n_evals += b.n_evals
-            rows.append((b.chain[sel], b.logp[sel], b.accepted[sel]))
+            rows.add(b.chain[sel], b.logp[sel], b.accepted[sel])
+            due = not adapt and n_steps >= next_check
+            if due and rows.n - hint[0] < SKIP_FRACTION * min_tau_lengths * hint[1]:
+                due = False
+                next_check = _round_up(max(n_steps + CHECK_FIRST, CHECK_GROWTH * n_steps), thin)
+            if due:
+                next_check = _round_up(max(n_steps + CHECK_FIRST, CHECK_GROWTH * n_steps), thin)
             state = sampler.get_state()
             state.extra["loop"] = {"n_steps": n_steps, "n_evals": n_evals, "n_adapt": n_adapt,
-                                   "thin": thin}
+                                   "thin": thin, "next_check": next_check, "hint": hint}
             store.flush(state)
             # aim for blocks of ~block_seconds, but at most a quarter of the time so far, so a
             # short run is not overshot by a long block before its first check
             target = min(block_seconds, max(0.1, 0.25 * (time.perf_counter() - t0)))
             block = int(np.clip(todo * target / max(dt, 1e-4), thin, 5000)) // thin * thin
             block = max(block, thin)
-            since_check += dt
-            if not adapt and n_steps >= n_adapt and since_check >= CHECK_COST_RATIO * check_cost:
-                tc = time.perf_counter()
-                check = check_convergence(*_merged(rows), n_adapt_rows, burn_rows, ess_target,
-                                          min_tau_lengths, rhat_max, names, full=False)
-                check_cost, since_check = time.perf_counter() - tc, 0.0
+            if due:
+                check = check_convergence(rows, *rows.small(), n_adapt_rows, burn_rows,
+                                          ess_target, min_tau_lengths, rhat_max, names, full=False)
+                tau_max = float(np.max(check.tau))
+                hint = [int(check.burn_in), tau_max if np.isfinite(tau_max) else 0.0]
                 if not check.failures:
                     converged = True
                     reason = (f"ESS >= {ess_target:g} for every parameter, kept chain"
@@ -244,15 +296,15 @@ def run_sampler(
     finally:
         if bar is not None:
             bar.close()
-    if not converged and n_steps >= n_adapt and rows:
+    if not converged and n_steps >= n_adapt and rows.n:
         # stopped by a budget: one full check of everything sampled, for the report
-        check = check_convergence(*_merged(rows), n_adapt_rows, burn_rows, ess_target,
+        check = check_convergence(rows, *rows.small(), n_adapt_rows, burn_rows, ess_target,
                                   min_tau_lengths, rhat_max, names, full=True)
     if check is not None and check.failures and not converged:
         reason += "; not converged: " + "; ".join(check.failures)
     elif check is None and not converged:
         reason += "; not converged: still adapting"
-    n_saved = sum(r[0].shape[0] for r in rows)
+    n_saved = rows.n
     return RunResult(
         converged=converged, reason=reason, n_steps=n_steps, n_saved=n_saved,
         burn_in=check.burn_in if check is not None else n_saved, n_evals=n_evals,
