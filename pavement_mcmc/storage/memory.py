@@ -64,11 +64,15 @@ class MemoryStore(Store):
         return RunState(d["position"], d["log_prob"], d["blobs"], d["rng_state"], d["extra"], d["arrays"])
 
     def _write_rows(self, start, chain, log_prob, blobs, accepted) -> None:
-        cols = self._run.cols
-        self._run.cols = [
-            np.concatenate([c[:start], new])
-            for c, new in zip(cols, [chain, log_prob, blobs, accepted], strict=True)
-        ]
+        # rows past the commit are scratch; capacity doubles so a long run is not copied per block
+        run = self._run
+        stop = start + np.shape(chain)[0]
+        if stop > run.cols[0].shape[0]:
+            cap = max(stop, 2 * run.cols[0].shape[0], 64)
+            run.cols = [np.concatenate([c, np.zeros((cap - c.shape[0], *c.shape[1:]), c.dtype)])
+                        for c in run.cols]
+        for c, new in zip(run.cols, [chain, log_prob, blobs, accepted], strict=True):
+            c[start:stop] = new
 
     def _write_state(self, slot: int, state: RunState) -> None:
         self._run.slots[slot] = _dumps(vars(state))
