@@ -112,7 +112,8 @@ def test_sbc_case_a_twins(inputs):
         if not p > 1e-3:
             bad[n] = (p, counts.tolist())
     if inputs == "noisy_integrated" and set(bad) == {"C"}:
-        # measured 2026-11-21: kappa p = 0.70, h p = 0.10, C p = 6e-5 with ranks leaning low
+        # measured 2026-11-21: C's ranks lean low, p 6e-6 to 1e-4 with time-based stopping,
+        # 0.0013 with the deterministic check schedule (so this passes by a hair); kappa, h fine
         pytest.xfail(f"C biased high by the boundary noise's attenuation (errors in variables), "
                      f"not removed by integrating the noise out: {bad['C']}")
     assert not bad, bad
@@ -218,7 +219,7 @@ def test_case_c_twins_cover_kappa_and_c(case_c_twins):
 
 
 @pytest.mark.xfail(strict=False, reason=(
-    "measured 2026-11-21: mean h coverage 89.7 % over the 8 twins (0.85-0.97 each), just under "
+    "measured 2026-11-21: mean h coverage 89.5 % over the 8 twins (0.85-0.96 each), just under "
     "the 90 % asked (nominal 95 %); kappa 6/8, C 7/8. Every twin misses the first 3-4 h of h: "
     "prior-dominated (see test_reference_case_c_covers_90_percent_of_h); with the true initial "
     "profile instead of the interpolated one the same pieces are missed"))
