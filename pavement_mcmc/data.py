@@ -16,7 +16,8 @@ column         unit          meaning
 Every problem with the input raises :class:`DataError` naming the file, the column and the row
 ("data row N" is the 1-based row after the header, "line L" the line in the file). Nothing is
 returned unless every check passes. Soft issues (very large time gaps, ignored columns) are
-reported through :mod:`warnings`.
+reported through :mod:`warnings`. The row-level checks (times, window, cells, ranges) live
+in :mod:`pavement_mcmc.data_checks`; every name there is re-exported here.
 """
 
 from __future__ import annotations
@@ -27,55 +28,32 @@ import math
 import re
 import warnings
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
 from datetime import UTC, datetime
 from pathlib import Path
 
 import numpy as np
 
+from pavement_mcmc.data_checks import _TOL as _TOL
+from pavement_mcmc.data_checks import GAP_WARN_FACTOR as GAP_WARN_FACTOR
+from pavement_mcmc.data_checks import KELVIN_MEDIAN as KELVIN_MEDIAN
+from pavement_mcmc.data_checks import MISSING_TOKENS as MISSING_TOKENS
+from pavement_mcmc.data_checks import Q_MAX as Q_MAX
+from pavement_mcmc.data_checks import T_RANGE as T_RANGE
+from pavement_mcmc.data_checks import DataError as DataError
+from pavement_mcmc.data_checks import _check_range as _check_range
+from pavement_mcmc.data_checks import _check_temperature as _check_temperature
+from pavement_mcmc.data_checks import _numeric_column as _numeric_column
+from pavement_mcmc.data_checks import _parse_times as _parse_times
+from pavement_mcmc.data_checks import _Table as _Table
+from pavement_mcmc.data_checks import _warn_time_gaps as _warn_time_gaps
+from pavement_mcmc.data_checks import _window as _window
 from pavement_mcmc.measurements import Measurements
 
 __all__ = ["DataError", "read_csv_case"]
 
-#: Cell contents read as "missing" (case-insensitive, after stripping blanks).
-MISSING_TOKENS = frozenset({"", "nan", "na", "n/a", "null", "none", "-"})
-#: Temperatures outside this range (degC) are rejected as physically implausible.
-T_RANGE = (-60.0, 90.0)
-#: A column whose median exceeds this (degC) is taken to be in kelvin.
-KELVIN_MEDIAN = 150.0
-#: |q_net| above this (W m-2) is rejected as physically implausible.
-Q_MAX = 2000.0
-#: A time step longer than this multiple of the median step triggers a warning.
-GAP_WARN_FACTOR = 4.0
-
 _ROLES = ("time", "T_air", "q_net", "wind", "rain")
 _REQUIRED = ("time", "T_air", "q_net")
 _DEPTH_RE = re.compile(r"^T_(\d+(?:\.\d*)?|\.\d+)cm$")
-_TOL = 1e-9
-
-
-class DataError(ValueError):
-    """Invalid case data; the message names the file, the column and the row."""
-
-
-@dataclass(frozen=True)
-class _Table:
-    path: str
-    header: list[str]
-    rows: list[list[str]]
-    lines: list[int]  # line in the file where each data row ends
-
-    def where(self, i: int) -> str:
-        """Human-readable position of data row index ``i`` (0-based)."""
-        return f"data row {i + 1} (line {self.lines[i]})"
-
-    def error(self, problem: str, column: str | None = None, row: int | None = None) -> DataError:
-        parts = [self.path]
-        if column is not None:
-            parts.append(f"column {column!r}")
-        if row is not None:
-            parts.append(self.where(row))
-        return DataError(", ".join(parts) + ": " + problem)
 
 
 def read_csv_case(
@@ -347,150 +325,3 @@ def _select_sensors(
             f"boundary at {depth_bot:g} cm; sensor depths in the file (cm): {listing}"
         )
     return depth_obs, depth_bot
-
-
-def _parse_times(table: _Table, col: int) -> np.ndarray:
-    """Seconds since the Unix epoch (UTC) of every row; strictly increasing."""
-    name = table.header[col]
-    out = np.empty(len(table.rows))
-    for i, row in enumerate(table.rows):
-        text = row[col]
-        try:
-            stamp = datetime.fromisoformat(text)
-        except ValueError:
-            raise table.error(
-                f"cannot parse time {text!r} (expected ISO 8601, e.g. 2004-06-06T00:15:00Z)",
-                name,
-                i,
-            ) from None
-        if stamp.tzinfo is None:
-            stamp = stamp.replace(tzinfo=UTC)
-        out[i] = stamp.timestamp()
-        if i and out[i] <= out[i - 1]:
-            kind = "repeats" if out[i] == out[i - 1] else "goes back before"
-            raise table.error(
-                f"time {text!r} {kind} the previous row's {table.rows[i - 1][col]!r} "
-                "(times must be strictly increasing)",
-                name,
-                i,
-            )
-    return out
-
-
-def _window(
-    table: _Table, hours: np.ndarray, window: Sequence[float | None] | None, time_col: str
-) -> np.ndarray:
-    """Indices of the rows inside the window (at least 3)."""
-    path, span = f"{table.path}, column {time_col!r}", float(hours[-1])
-    if window is None:
-        start, end = 0.0, span
-    else:
-        try:
-            start, end = window
-            start = 0.0 if start is None else float(start)
-            end = span if end is None else float(end)
-        except (TypeError, ValueError):
-            raise DataError(f"{path}: window_hours must be (start, end) in hours, got {window!r}") from None
-        if not (math.isfinite(start) and math.isfinite(end)) or start >= end:
-            raise DataError(f"{path}: window_hours must have start < end, got {window!r}")
-        if start < -_TOL or end > span + 1e-6:
-            raise DataError(
-                f"{path}: window_hours ({start:g}, {end:g}) h lies outside the data, which covers "
-                f"0 to {span:g} h after the first row, {table.where(0)}"
-            )
-    idx = np.flatnonzero((hours >= start - 1e-6) & (hours <= end + 1e-6))
-    if idx.size < 3:
-        raise DataError(
-            f"{path}: window_hours ({start:g}, {end:g}) h holds {idx.size} rows; at least 3 needed"
-        )
-    return idx
-
-
-def _warn_time_gaps(table: _Table, t: np.ndarray, idx: np.ndarray) -> None:
-    steps = np.diff(t)
-    med = float(np.median(steps))
-    for j in np.flatnonzero(steps > GAP_WARN_FACTOR * med):
-        warnings.warn(
-            f"{table.path}: large time gap of {steps[j] / 3600:.3g} h (median step "
-            f"{med / 60:.3g} min) between {table.where(idx[j])} and {table.where(idx[j + 1])}",
-            stacklevel=3,
-        )
-
-
-def _numeric_column(
-    table: _Table,
-    col: int,
-    idx: np.ndarray,
-    t: np.ndarray,
-    max_gap_fill: int,
-    fills: list[tuple[str, int, int]],
-) -> np.ndarray:
-    """Parse one column over the window rows; fill interior gaps up to ``max_gap_fill``."""
-    name = table.header[col]
-    out = np.empty(idx.size)
-    for j, i in enumerate(idx):
-        text = table.rows[i][col]
-        if text.lower() in MISSING_TOKENS:
-            out[j] = np.nan
-            continue
-        try:
-            out[j] = float(text)
-        except ValueError:
-            raise table.error(f"non-numeric value {text!r}", name, i) from None
-        if not math.isfinite(out[j]):
-            raise table.error(f"non-finite value {text!r}", name, i)
-    missing = np.isnan(out)
-    if not missing.any():
-        return out
-    # runs of consecutive missing cells: [first, last] window indices
-    edges = np.diff(np.concatenate(([0], missing.astype(np.int8), [0])))
-    for a, b in zip(np.flatnonzero(edges == 1), np.flatnonzero(edges == -1) - 1, strict=True):
-        rows = f"{table.where(idx[a])}" + (f" to {table.where(idx[b])}" if b > a else "")
-        n = b - a + 1
-        what = f"{n} consecutive missing values" if n > 1 else "missing value"
-        if a == 0 or b == idx.size - 1:
-            raise table.error(
-                f"{what} at the edge of the time window, {rows}; edge gaps cannot be "
-                "interpolated (narrow window_hours instead)",
-                name,
-            )
-        if n > max_gap_fill:
-            raise table.error(
-                f"{what}, {rows}; max_gap_fill = {max_gap_fill}",
-                name,
-            )
-        fills.append((name, int(idx[a]) + 1, int(idx[b]) + 1))
-    out[missing] = np.interp(t[missing], t[~missing], out[~missing])
-    return out
-
-
-def _check_temperature(table: _Table, col: int, arr: np.ndarray, idx: np.ndarray) -> None:
-    name = table.header[col]
-    med = float(np.median(arr))
-    if med > KELVIN_MEDIAN:
-        raise table.error(
-            f"value {arr[0]:g}, median {med:.1f}: looks like kelvin, convert to °C (subtract 273.15)",
-            name,
-            int(idx[0]),
-        )
-    _check_range(table, col, arr, idx, *T_RANGE, "degC, physically implausible")
-
-
-def _check_range(
-    table: _Table,
-    col: int,
-    arr: np.ndarray,
-    idx: np.ndarray,
-    lo: float,
-    hi: float,
-    what: str,
-) -> None:
-    bad = np.flatnonzero((arr < lo) | (arr > hi))
-    if bad.size:
-        j = int(bad[0])
-        more = f" ({bad.size} rows in all)" if bad.size > 1 else ""
-        raise table.error(
-            f"value {arr[j]:g} outside [{lo:g}, {hi:g}] ({what}){more}",
-            table.header[col],
-            int(idx[j]),
-        )
