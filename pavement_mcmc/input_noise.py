@@ -65,27 +65,18 @@ class InputNoise:
     def from_jacobian(cls, U: dict[str, np.ndarray], sigma: float,
                       sigmas: dict[str, float]) -> InputNoise:
         """Independent input errors, sd ``sigmas[kind]`` (a number, or one per column) for the
-        columns ``U[kind]``:
-        ``Sigma = sigma^2 I + sum_k sigmas[k]^2 U_k U_k^T``."""
+        columns ``U[kind]``: ``Sigma = sigma^2 I + sum_k sigmas[k]^2 U_k U_k^T``."""
         if not sigma > 0 or any(not np.all(np.asarray(v) >= 0) for v in sigmas.values()):
             raise ValueError(f"need sigma > 0 and input sds >= 0; got {sigma}, {sigmas}")
         F = np.concatenate([np.asarray(sigmas[k], float) * np.asarray(U[k], float) for k in sigmas],
-                           axis=1)
-        return cls.from_factor(F, sigma, dict(sigmas))
-
-    @classmethod
-    def from_factor(cls, F: np.ndarray, sigma: float, sigma_in: dict) -> InputNoise:
-        """``Sigma = sigma^2 I + F F^T`` for a factor ``F`` (n_data, k)."""
-        F = np.asarray(F, float)
-        if not sigma > 0:
-            raise ValueError(f"need sigma > 0; got {sigma}")
+                           axis=1)  # Sigma = sigma^2 I + F F^T
         Q, s, _ = np.linalg.svd(F / sigma, full_matrices=False)
         keep = s**2 > 1e-4  # smaller terms change no whitened residual by more than 5e-5
         Q, s = Q[:, keep], s[keep]
         n = F.shape[0]
         logdet = n * np.log(sigma**2) + float(np.sum(np.log1p(s**2)))
         sd = np.sqrt(sigma**2 + np.sum(F * F, axis=1))
-        return cls(float(sigma), sigma_in, Q, 1.0 / np.sqrt(1.0 + s**2) - 1.0, logdet, sd)
+        return cls(float(sigma), dict(sigmas), Q, 1.0 / np.sqrt(1.0 + s**2) - 1.0, logdet, sd)
 
     def whiten(self, r: np.ndarray) -> np.ndarray:
         """``Sigma^(-1/2) r`` for residual rows ``r`` (..., n_data)."""

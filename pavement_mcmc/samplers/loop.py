@@ -259,12 +259,10 @@ def run_sampler(
             n_steps += todo
             n_evals += b.n_evals
             rows.add(b.chain[sel], b.logp[sel], b.accepted[sel])
-            due = not adapt and n_steps >= next_check
-            if due and rows.n - hint[0] < SKIP_FRACTION * min_tau_lengths * hint[1]:
-                due = False
+            due = False
+            if not adapt and n_steps >= next_check:  # a check point: check unless it cannot pass
                 next_check = _round_up(max(n_steps + CHECK_FIRST, CHECK_GROWTH * n_steps), thin)
-            if due:
-                next_check = _round_up(max(n_steps + CHECK_FIRST, CHECK_GROWTH * n_steps), thin)
+                due = rows.n - hint[0] >= SKIP_FRACTION * min_tau_lengths * hint[1]
             state = sampler.get_state()
             state.extra["loop"] = {"n_steps": n_steps, "n_evals": n_evals, "n_adapt": n_adapt,
                                    "thin": thin, "next_check": next_check, "hint": hint}
