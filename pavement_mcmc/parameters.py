@@ -112,6 +112,25 @@ class ParameterSpace:
                 lp += jp.logpdf(p)
         return np.where(inside & np.isfinite(lp), lp, -np.inf)
 
+    def grad_log_prior(self, theta: np.ndarray, joint: bool = True) -> np.ndarray:
+        """Gradient of :meth:`log_prior` with respect to ``theta`` (n_sets, n_free), for rows
+        inside the bounds; ``joint=False`` leaves the joint (smoothness) priors out."""
+        theta = np.atleast_2d(np.asarray(theta, float))
+        free = self.free
+        out = np.zeros_like(theta)
+        for i, n in enumerate(free):
+            prior = self.params[n].prior
+            if not isinstance(prior, Flat):
+                out[:, i] = prior.grad_logpdf(theta[:, i])
+        if joint and self.joint_priors:
+            p = self.expand(theta)
+            col = {n: i for i, n in enumerate(free)}
+            for jp in self.joint_priors:
+                for n, g in jp.grad_logpdf(p).items():
+                    if n in col:
+                        out[:, col[n]] += g
+        return out
+
     # -- configuration -----------------------------------------------------------------------
     def configure(self, section: dict) -> ParameterSpace:
         """Apply a config ``[parameters]`` section; keys are parameter names or group names.

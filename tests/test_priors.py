@@ -105,3 +105,28 @@ def test_log_prior_bounds_and_config_priors():
     assert lp[0] == pytest.approx(float(expected))
     with pytest.raises(ValueError, match="unknown prior dist"):
         prior_from_config({"dist": "cauchy"})
+
+
+def test_log_prior_gradient_matches_finite_differences():
+    """ParameterSpace.grad_log_prior (univariate priors' grad_logpdf + the GMRF's gradient in h
+    and gamma) against central differences of log_prior."""
+    names = ("h_1", "h_2", "h_3", "h_4")
+    params = [
+        Parameter("kappa", 1.3, 0.0, 50.0, prior=TruncatedNormal(2.27, 0.1135)),
+        Parameter("C", 1.0, 0.0, 10.0, prior=Normal(1.5, 0.5)),
+        Parameter("u", 0.5, -1.0, 3.0, prior=Uniform(-1.0, 3.0)),
+        Parameter("gamma", 1.7, 0.0, 1e4, prior=Rayleigh(2.22)),
+    ] + [Parameter(n, 10.0, 0.0, 500.0, group="h") for n in names]
+    space = ParameterSpace(params, [GMRFSmoothness(names, "gamma")])
+    rng = np.random.default_rng(0)
+    theta = np.array([1.3, 1.1, 0.4, 1.7, 9.0, 11.0, 7.5, 8.0]) + 0.1 * rng.normal(size=(3, 8))
+    g = space.grad_log_prior(theta)
+    eps = 1e-6
+    for j in range(theta.shape[1]):
+        tp, tm = theta.copy(), theta.copy()
+        tp[:, j] += eps
+        tm[:, j] -= eps
+        fd = (space.log_prior(tp) - space.log_prior(tm)) / (2 * eps)
+        np.testing.assert_allclose(g[:, j], fd, rtol=1e-6, atol=1e-6)
+    # without the joint prior: only the univariate terms (h has flat priors)
+    assert np.all(space.grad_log_prior(theta, joint=False)[:, 4:] == 0.0)

@@ -123,10 +123,45 @@ class Model:
         """Nodal temperatures, shape (n_sets, n_obs, n_nodes), degC."""
         return solve(self.grid, self.forcing, self.coefficients(p), scheme=self.scheme)
 
+    @property
+    def has_gradient(self) -> bool:
+        """Whether :meth:`solve_vjp` is available: the adjoint covers the base model (uniform
+        kappa and C, h from the basis) with the Crank–Nicolson scheme, no extension."""
+        return not self.extensions and self.scheme == "cn"
+
+    def solve_vjp(self, p: dict[str, np.ndarray], cotangent_fn) -> tuple[np.ndarray, list, np.ndarray]:
+        """Nodal temperatures and the gradient of a loss with respect to the parameters.
+
+        ``cotangent_fn(T_nodes) -> G`` gives d loss / d T_nodes (same shape); returns
+        ``(T_nodes, names, grad)`` with ``grad`` (n_sets, len(names)) the gradient with respect
+        to kappa, C and every h piece (``names``), by the discrete adjoint of the solver
+        (:mod:`pavement_mcmc.adjoint`): about the cost of three solves.
+        """
+        if not self.has_gradient:
+            raise NotImplementedError("the adjoint covers the base model with the 'cn' scheme only")
+        from ..adjoint import solve_vjp
+
+        out, g = solve_vjp(self.grid, self.forcing, self.coefficients(p), cotangent_fn)
+        cols = [g["kappa"].sum(axis=1)[:, None], g["C"][:, :-1].sum(axis=1)[:, None]]
+        names = ["kappa", "C"]
+        if not self.replaces_h:
+            cols.append(g["h"] @ self.h_basis.W)
+            names += list(self.h_basis.names)
+        return out, names, np.concatenate(cols, axis=1)
+
     def observe_nominal(self, T_nodes: np.ndarray) -> np.ndarray:
         """Temperatures at the sensors' nominal depths (n_sets, n_obs, n_sensors)."""
         i, w = self._obs_i, self._obs_w
         return T_nodes[..., i] * (1.0 - w) + T_nodes[..., i + 1] * w
+
+    def observe_nominal_transpose(self, G: np.ndarray) -> np.ndarray:
+        """Adjoint of :meth:`observe_nominal`: sensor cotangents (..., n_sensors) -> nodes."""
+        i, w = self._obs_i, self._obs_w
+        out = np.zeros(G.shape[:-1] + (self.grid.n_nodes,))
+        for k in range(G.shape[-1]):
+            out[..., i[k]] += G[..., k] * (1.0 - w[k])
+            out[..., i[k] + 1] += G[..., k] * w[k]
+        return out
 
     def observe(self, T_nodes: np.ndarray, p: dict[str, np.ndarray]) -> np.ndarray:
         """Sensor predictions (n_sets, n_obs, n_sensors) from nodal temperatures: the nominal
