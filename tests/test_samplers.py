@@ -36,6 +36,12 @@ class LinearGaussian:
     def residuals(self, theta):
         return (np.atleast_2d(theta) @ self.X.T - self.y)[:, :, None]
 
+    def loglik_and_grad(self, theta):
+        theta = np.atleast_2d(theta)
+        r = theta @ self.X.T - self.y
+        ll = -0.5 * np.sum((r / self.sigma) ** 2, axis=1)
+        return ll, -(r @ self.X) / self.sigma**2, np.sqrt(np.mean(r * r, 1))[:, None]
+
     def __call__(self, theta):
         theta = np.atleast_2d(theta)
         lp = self.space.log_prior(theta)
@@ -57,9 +63,9 @@ def _prepared(kind, post, seed=1):
 
 
 def test_registry_and_unknown_name():
-    assert sampler_names() == sorted(SAMPLERS) == ["emcee", "fast", "mh"]
-    with pytest.raises(ValueError, match="valid: emcee, fast, mh"):
-        get_sampler("hmc", LinearGaussian())
+    assert sampler_names() == sorted(SAMPLERS) == ["emcee", "fast", "hmc", "mh"]
+    with pytest.raises(ValueError, match="valid: emcee, fast, hmc, mh"):
+        get_sampler("nuts", LinearGaussian())
 
 
 @pytest.mark.parametrize("kind,steps", [("fast", 400), ("mh", 3000), ("emcee", 1500)])
@@ -84,7 +90,7 @@ def test_recovers_gaussian_mean_and_covariance(kind, steps):
     np.testing.assert_allclose(corr, post.cov / np.outer(sd, sd), atol=0.1)
 
 
-@pytest.mark.parametrize("kind", ["fast", "mh", "emcee"])
+@pytest.mark.parametrize("kind", ["fast", "mh", "emcee", "hmc"])
 def test_resume_is_bit_for_bit(kind):
     post = LinearGaussian(seed=3)
     n = 120
@@ -105,7 +111,7 @@ def test_resume_is_bit_for_bit(kind):
         np.testing.assert_array_equal(getattr(A, field), getattr(B, field))
 
 
-@pytest.mark.parametrize("kind", ["fast", "emcee"])
+@pytest.mark.parametrize("kind", ["fast", "emcee", "hmc"])
 def test_stopping_point_does_not_depend_on_block_timing(kind):
     """Checks run at fixed step counts: with blocks of very different wall-clock length the
     run stops at the same step with the same chain (the stopping rule on a real target)."""
@@ -200,6 +206,14 @@ class ToyGMRF:
     def log_likelihood_from_residuals(self, r):
         return -0.5 * np.sum((r / self.sigma) ** 2, axis=(-2, -1))
 
+    def loglik_and_grad(self, theta):
+        theta = np.atleast_2d(theta)
+        r = theta[:, 1:] - self.y
+        g = np.zeros_like(theta)
+        g[:, 1:] = -r / self.sigma**2
+        return (-0.5 * np.sum((r / self.sigma) ** 2, axis=1), g,
+                np.sqrt(np.mean(r * r, 1))[:, None])
+
     def __call__(self, theta):
         theta = np.atleast_2d(theta)
         lp = self.space.log_prior(theta)
@@ -261,13 +275,13 @@ def test_gamma_marginalised_sampler_matches_quadrature(move, opts):
     np.testing.assert_allclose(d.log_prob[-1], post(d.chain[-1])[0], rtol=0, atol=1e-8)
 
 
-@pytest.mark.parametrize("move", ["rw", "block"])
-def test_gamma_marginalised_resume_is_bit_for_bit(move):
+@pytest.mark.parametrize("kind, move", [("fast", "rw"), ("fast", "block"), ("hmc", None)])
+def test_gamma_marginalised_resume_is_bit_for_bit(kind, move):
     post = ToyGMRF(seed=2)
     n = 120
 
     def prep():
-        s = get_sampler("fast", post, n_chains=16, seed=7, first_window=20, move=move)
+        s = get_sampler(kind, post, n_chains=16, seed=7, first_window=20, move=move, metric_at=40)
         s.prepare()
         return s
 
@@ -277,7 +291,7 @@ def test_gamma_marginalised_resume_is_bit_for_bit(move):
     b = prep()
     st_b = _store(post, b.n_chains)
     run_sampler(b, st_b, ess_target=1e9, max_steps=n // 2 - 30, n_adapt=50)  # inside adaptation
-    c = get_sampler("fast", post, first_window=20, move=move)
+    c = get_sampler(kind, post, first_window=20, move=move, metric_at=40)
     c.set_state(st_b.state)
     st_c = MemoryStore.open_append(st_b)
     run_sampler(c, st_c, ess_target=1e9, max_steps=n, n_adapt=50)

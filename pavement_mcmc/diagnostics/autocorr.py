@@ -68,7 +68,10 @@ def _sokal_tau(x: np.ndarray, c: float) -> np.ndarray:
     window = np.where(inside.all(axis=0), n - 1, np.argmin(inside, axis=0))
     tau = taus[window, np.arange(taus.shape[1])]
     constant = np.all(rho == 1.0, axis=0) & (n > 1)
-    return np.where(constant, np.inf, tau)
+    # antithetic chains (HMC) have negative lag-1 correlations and tau < 1, down to nonsense
+    # negative values; as Stan does, cap the ESS at N log10 N (N = all draws)
+    floor = 1.0 / np.log10(max(x.size // (x.shape[2] if x.ndim == 3 else 1), 10))
+    return np.where(constant, np.inf, np.maximum(tau, floor))
 
 
 def integrated_time(x: np.ndarray, c: float = 5, tol: float = 50, quiet: bool = False) -> np.ndarray:
@@ -77,8 +80,9 @@ def integrated_time(x: np.ndarray, c: float = 5, tol: float = 50, quiet: bool = 
     .. math:: \tau = 1 + 2 \sum_{k=1}^{M} \rho(k),
 
     with :math:`\rho` the FFT autocorrelation averaged over chains (as in emcee's
-    ``autocorr.integrated_time``) and the window :math:`M` the smallest lag with
-    :math:`M \ge c\, \tau(M)` (Sokal 1997, p. 16; Goodman & Weare 2010).
+    ``autocorr.integrated_time``), at least :math:`1/\log_{10} N` (N draws in all: the ESS is
+    capped at :math:`N \log_{10} N`, as in Stan, for antithetic chains), and the window
+    :math:`M` the smallest lag with :math:`M \ge c\, \tau(M)` (Sokal 1997, p. 16; Goodman & Weare 2010).
 
     Parameters
     ----------

@@ -12,6 +12,7 @@ from __future__ import annotations
 from .base import Block, Sampler
 from .ensemble import EmceeSampler
 from .fast import FastSampler
+from .hmc import HMCSampler
 from .mh import MHSampler
 
 #: name -> sampler class
@@ -19,6 +20,7 @@ SAMPLERS: dict[str, type[Sampler]] = {
     "emcee": EmceeSampler,
     "mh": MHSampler,
     "fast": FastSampler,
+    "hmc": HMCSampler,
 }
 
 

@@ -46,7 +46,7 @@ TAU_ROWS, RHAT_ROWS = 1000, 500
 #: depends on its seed only, never on the machine's speed, and the checks cost a bounded share
 CHECK_FIRST, CHECK_GROWTH, SKIP_FRACTION = 20, 1.15, 0.7
 
-DEFAULT_ADAPT = {"fast": lambda d: max(150, 10 * d), "mh": lambda d: max(2000, 50 * d),
+DEFAULT_ADAPT = {"fast": lambda d: max(150, 10 * d), "hmc": lambda d: 150, "mh": lambda d: max(2000, 50 * d),
                  "emcee": lambda d: 0}
 
 

@@ -1,0 +1,291 @@
+r"""Hamiltonian Monte Carlo with the Laplace covariance as metric, reflection at the bounds.
+
+The sampler for Case C: the random walks of :mod:`.fast` need ~100 autocorrelation times of
+~500 steps there (116 unknowns, night h against h >= 0), while a Hamiltonian trajectory moves
+all of them at once along the gradient, which the solver's adjoint gives for about two solves.
+
+Target: with a free smoothness precision gamma (Case C), the posterior of x = every free
+parameter but gamma with gamma integrated out, log-likelihood + univariate log-priors +
+:math:`\log F(\lVert Dh\rVert^2)` (:mod:`.marginal`; its gradient in h is
+:math:`-E[\gamma\mid S]\,D^TDh`), and after every step gamma | h is drawn exactly (no solve),
+as in :mod:`.marginal_rw`; otherwise the posterior of all free parameters.
+
+Preparation: the (gamma-marginal) MAP and its Laplace covariance ``Sigma = L L^T``; the chains
+start from it, over-dispersed. Dynamics in whitened coordinates ``u = L^{-1} x`` (identity
+mass): leapfrog steps of size ``eps`` (jittered by +-20 % per chain and step, so no trajectory
+length resonates), ``n_leapfrog = ceil(trajectory_length / eps)`` of them. Bounds (h >= 0,
+kappa, C > 0) are hyperplanes in ``u``; a drift that reaches one is reflected specularly there
+(the momentum's component along the plane's normal flips) and continues for the rest of the
+step — volume-preserving and reversible, so the Metropolis test on the total energy keeps the
+chain exact (Neal 2011, "MCMC using Hamiltonian dynamics", 5.5.1.5). The posterior is never
+evaluated outside the bounds.
+
+Adaptation (burn-in only, then frozen): ``eps`` by dual averaging towards an acceptance rate of
+``target_acceptance`` (default 0.8; Hoffman & Gelman 2014), and the metric ``Sigma`` once, at
+adaptation step ``metric_at`` (default 75), from the pooled chains since step 30 (shrunk 10 %
+towards its diagonal; ``adapt_metric = False`` keeps the Laplace one), after which the dual
+averaging starts again for the new metric. Use an adaptation of at least ~2 ``metric_at``
+steps (the loop's default for ``hmc`` is 150).
+
+A step costs ``n_leapfrog`` gradient evaluations per chain; :attr:`Block.n_evals` counts them
+(each is one solve and one adjoint sweep, or ``2 d + 1`` solves by central differences for models
+without an adjoint).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..map import find_map
+from .base import Block, start_points
+from .fast import FastSampler
+from .marginal import gmrf_of
+
+#: dual-averaging constants (Hoffman & Gelman 2014, section 3.2)
+_DA_GAMMA, _DA_T0, _DA_KAPPA = 0.05, 10.0, 0.75
+#: adaptation steps before the metric's draws are pooled (the step size settles first)
+_METRIC_SKIP = 30
+_SCALARS = ("log_eps", "log_eps_bar", "hbar", "mu", "k_adapt", "k_da", "n_leapfrog", "frozen",
+            "metric_done", "win_n")
+_ARRAYS = ("idx", "hcols", "hpos", "L", "f", "g", "loglik", "win_1", "win_2")
+
+
+class HMCSampler(FastSampler):
+    """Reflective HMC with a Laplace metric (see the module docstring).
+
+    Options
+    -------
+    target_acceptance : float, default 0.8.
+    trajectory_length : float, default 1.5 (whitened units; ~pi/2 is a half period of a
+        Gaussian with exactly the metric's covariance).
+    max_leapfrog : int, default 64.
+    step_size : initial ``eps`` (default ``0.5 d^-1/4``).
+    adapt_metric : bool, default True.
+    laplace : a precomputed :class:`~pavement_mcmc.map.Laplace` (cases without gamma).
+    marginal_map : a precomputed marginal MAP (cases with gamma).
+    """
+
+    name = "hmc"
+    adaptive = True
+
+    @staticmethod
+    def default_chains(ndim: int) -> int:
+        return 16
+
+    def needs_laplace(self) -> bool:
+        return gmrf_of(self.posterior.space) is None
+
+    # -- preparation -------------------------------------------------------------------------
+    def prepare(self, theta0=None) -> None:
+        space = self.posterior.space
+        self.marginal = gmrf_of(space) is not None
+        if self.marginal:
+            self._prepare_marginal(theta0)  # MAP, Laplace covariance, start points, gamma draw
+            cov = self.prop_cov
+        else:
+            lap = self.options.get("laplace")
+            if lap is None:
+                lap = find_map(self.posterior, theta0)
+                self.n_prep_evals += lap.n_evals
+            self.idx = np.arange(len(space.free))
+            self.hcols, self.gi = np.zeros(0, int), None
+            self.lo, self.hi = space.bounds()
+            self.theta = start_points(self, laplace=lap)[0]
+            cov = np.asarray(lap.cov, float)[np.ix_(self.idx, self.idx)]
+        pos = {int(c): j for j, c in enumerate(self.idx)}
+        self.hpos = np.array([pos[int(c)] for c in self.hcols], dtype=int)
+        self._set_metric(cov)
+        d = self.idx.size
+        eps0 = float(self.options.get("step_size") or 0.5 * d**-0.25)
+        self.log_eps = self.log_eps_bar = float(np.log(eps0))
+        self.mu = float(np.log(10.0 * eps0))
+        self.hbar, self.k_adapt, self.k_da, self.frozen, self.metric_done = 0.0, 0, 0, False, False
+        self.n_leapfrog = self._n_leapfrog(eps0)
+        self.win_n, self.win_1, self.win_2 = 0.0, np.zeros(d), np.zeros((d, d))
+        self.f, self.g, self.loglik, self.blobs = self._value_grad(self.theta)
+        self.n_prep_evals += self.n_chains
+        self.logp = self._joint_logp(self.theta)
+
+    def _set_metric(self, cov: np.ndarray) -> None:
+        cov = 0.5 * (cov + cov.T)
+        sd = np.sqrt(np.diag(cov))
+        corr = cov / np.outer(sd, sd)
+        self.L = np.linalg.cholesky(corr + 1e-10 * np.eye(sd.size)) * sd[:, None]
+
+    def _n_leapfrog(self, eps: float) -> int:
+        traj = float(self.options.get("trajectory_length", 1.5))
+        return int(np.clip(np.ceil(traj / eps), 1, int(self.options.get("max_leapfrog", 64))))
+
+    # -- the target --------------------------------------------------------------------------
+    def _full(self, X: np.ndarray) -> np.ndarray:
+        th = self.theta.copy() if X.shape[0] == self.theta.shape[0] else np.repeat(
+            self.theta[:1], X.shape[0], axis=0)
+        th[:, self.idx] = X
+        return th
+
+    def _value_grad(self, theta: np.ndarray):
+        """Target log-density f (n,), its gradient in x (n, d), log-likelihood, blobs."""
+        space = self.posterior.space
+        with np.errstate(all="ignore"):
+            ll, gll, bl = self.posterior.loglik_and_grad(theta)
+        if self.marginal:
+            gp = np.zeros_like(theta)
+            for i, prior in self.uni:  # the non-flat univariate priors
+                gp[:, i] = prior.grad_logpdf(theta[:, i])
+        else:
+            gp = space.grad_log_prior(theta)
+        g = (gll + gp)[:, self.idx]
+        if self.marginal:
+            h = theta[:, self.hcols]
+            dh = np.diff(h, axis=1)
+            S = np.sum(dh * dh, axis=1)
+            f = ll + self._uni_logp(theta) + self.tab.log_f(S)
+            DtDh = np.zeros_like(h)
+            DtDh[:, :-1] -= dh
+            DtDh[:, 1:] += dh
+            g[:, self.hpos] -= self.tab.mean_gamma(S)[:, None] * DtDh
+        else:
+            f = ll + space.log_prior(theta)
+        bad = ~(np.isfinite(f) & np.all(np.isfinite(g), axis=1))
+        f = np.where(bad, -np.inf, f)
+        g = np.where(bad[:, None], 0.0, g)
+        return f, g, ll, np.where(bad[:, None], np.inf, bl)
+
+    def _joint_logp(self, theta: np.ndarray) -> np.ndarray:
+        if self.marginal:
+            return self.loglik + self._joint_log_prior(theta, self._uni_logp(theta))
+        return self.f
+
+    # -- dynamics ----------------------------------------------------------------------------
+    def _drift(self, x: np.ndarray, p: np.ndarray, eps: np.ndarray):
+        """Move for time ``eps`` (per chain) along x-velocity ``L p``, reflecting at the bounds."""
+        lo, hi = self.lo[self.idx], self.hi[self.idx]
+        rows = np.arange(x.shape[0])
+        t_left = eps.copy()
+        v = p @ self.L.T
+        for _ in range(1000):
+            with np.errstate(divide="ignore", invalid="ignore"):
+                t_lo = np.where(v < 0, np.maximum((lo - x) / v, 0.0), np.inf)
+                t_hi = np.where(v > 0, np.maximum((hi - x) / v, 0.0), np.inf)
+            tt = np.minimum(t_lo, t_hi)
+            k = np.argmin(tt, axis=1)
+            tk = tt[rows, k]
+            hit = tk < t_left
+            dt = np.where(hit, tk, t_left)
+            x = x + dt[:, None] * v
+            t_left = t_left - dt
+            if not hit.any():
+                return np.clip(x, lo, hi), p
+            r, kk = rows[hit], k[hit]
+            x[r, kk] = np.where(v[r, kk] < 0, lo[kk], hi[kk])
+            n = self.L[kk]  # the plane x_k = bound has normal L[k] in u
+            c = 2.0 * np.sum(p[r] * n, axis=1) / np.sum(n * n, axis=1)
+            p[r] -= c[:, None] * n
+            v[r] -= c[:, None] * (n @ self.L.T)
+        raise RuntimeError("HMC: more than 1000 reflections in one leapfrog step")
+
+    def _trajectory(self, eps: np.ndarray):
+        """One leapfrog trajectory from the current state; returns the proposal and log alpha."""
+        m, d = self.theta.shape[0], self.idx.size
+        p0 = self.rng.standard_normal((m, d))
+        x = self.theta[:, self.idx].copy()
+        e = eps[:, None]
+        p = p0 + 0.5 * e * (self.g @ self.L)
+        for j in range(self.n_leapfrog):
+            x, p = self._drift(x, p, eps)
+            f, g, ll, bl = self._value_grad(self._full(x))
+            p = p + (0.5 if j == self.n_leapfrog - 1 else 1.0) * e * (g @ self.L)
+        with np.errstate(invalid="ignore", over="ignore"):
+            log_a = (f - 0.5 * np.sum(p * p, axis=1)) - (self.f - 0.5 * np.sum(p0 * p0, axis=1))
+        log_a = np.where(np.isnan(log_a), -np.inf, log_a)
+        return x, f, g, ll, bl, log_a
+
+    def step(self, n_steps: int, adapt: bool = False) -> Block:
+        if not adapt and not self.frozen:
+            self._freeze()
+        rows = []
+        m = self.theta.shape[0]
+        for _ in range(n_steps):
+            eps = np.exp(self.log_eps) * self.rng.uniform(0.8, 1.2, size=m)
+            x, f, g, ll, bl, log_a = self._trajectory(eps)
+            acc = np.log(self.rng.uniform(size=m)) < log_a
+            self.theta[:, self.idx] = np.where(acc[:, None], x, self.theta[:, self.idx])
+            self.f = np.where(acc, f, self.f)
+            self.g = np.where(acc[:, None], g, self.g)
+            self.loglik = np.where(acc, ll, self.loglik)
+            self.blobs = np.where(acc[:, None], bl, self.blobs)
+            if self.marginal:
+                self.theta[:, self.gi] = self._draw_gamma(self.theta)
+            self.logp = self._joint_logp(self.theta)
+            if adapt:
+                self._adapt(float(np.mean(np.exp(np.minimum(log_a, 0.0)))))
+            rows.append((self.theta.copy(), self.logp.copy(), self.blobs.copy(), acc,
+                         m * self.n_leapfrog))
+        return Block.stack(rows)
+
+    # -- adaptation --------------------------------------------------------------------------
+    def _adapt(self, accept_prob: float) -> None:
+        """Dual averaging of log eps; at step ``metric_at`` the metric from the pooled draws
+        since step :data:`_METRIC_SKIP`, and the dual averaging restarts for it."""
+        self.k_adapt += 1
+        self.k_da += 1
+        k = self.k_da
+        delta = float(self.options.get("target_acceptance", 0.8))
+        eta = 1.0 / (k + _DA_T0)
+        self.hbar = (1.0 - eta) * self.hbar + eta * (delta - accept_prob)
+        self.log_eps = self.mu - np.sqrt(k) / _DA_GAMMA * self.hbar
+        w = k**-_DA_KAPPA
+        self.log_eps_bar = w * self.log_eps + (1.0 - w) * self.log_eps_bar
+        if bool(self.options.get("adapt_metric", True)) and not self.metric_done:
+            if self.k_adapt > _METRIC_SKIP:
+                x = self.theta[:, self.idx]
+                self.win_n += x.shape[0]
+                self.win_1 += x.sum(axis=0)
+                self.win_2 += x.T @ x
+            if self.k_adapt >= int(self.options.get("metric_at", 75)):
+                self._metric_from_window()
+        self.n_leapfrog = self._n_leapfrog(float(np.exp(self.log_eps)))
+
+    def _metric_from_window(self) -> None:
+        """The pooled draws' covariance (shrunk 10 % to its diagonal) as the new metric."""
+        self.metric_done = True
+        n = self.win_n
+        if n < 2 * self.idx.size:
+            return
+        mu = self.win_1 / n
+        cov = (self.win_2 - n * np.outer(mu, mu)) / (n - 1.0)
+        cov = 0.9 * cov + 0.1 * np.diag(np.diag(cov))
+        if np.all(np.isfinite(cov)) and np.all(np.linalg.eigvalsh(cov) > 0):
+            self._set_metric(cov)
+            # whitened gradients change with the metric; restart the step size search
+            self.mu = float(self.log_eps + np.log(10.0))
+            self.hbar, self.k_da, self.log_eps_bar = 0.0, 0, float(self.log_eps)
+
+    def _freeze(self) -> None:
+        """End of adaptation: the averaged step size, frozen with the metric."""
+        self.frozen = True
+        if self.k_da > 0:
+            self.log_eps = self.log_eps_bar
+        self.n_leapfrog = self._n_leapfrog(float(np.exp(self.log_eps)))
+
+    # -- state -------------------------------------------------------------------------------
+    def _extra_state(self):
+        extra = {k: getattr(self, k) for k in _SCALARS}
+        extra.update(marginal=self.marginal, gi=self.gi)
+        return extra, {k: np.asarray(getattr(self, k), float) for k in _ARRAYS}
+
+    def _load_extra_state(self, extra, arrays):
+        self.marginal = bool(extra["marginal"])
+        self.gi = None if extra["gi"] is None else int(extra["gi"])
+        for k in _SCALARS:
+            setattr(self, k, extra[k])
+        self.k_adapt, self.k_da, self.n_leapfrog = int(self.k_adapt), int(self.k_da), int(self.n_leapfrog)
+        self.frozen, self.metric_done = bool(self.frozen), bool(self.metric_done)
+        for k in _ARRAYS:
+            setattr(self, k, np.array(arrays[k], dtype=float))
+        for k in ("idx", "hcols", "hpos"):
+            setattr(self, k, getattr(self, k).astype(int))
+        self.lo, self.hi = self.posterior.space.bounds()
+        if self.marginal:
+            self.tab = self._table()
+            self._prior_terms()

@@ -1,0 +1,137 @@
+"""The reflective HMC sampler on exact targets (truncated Gaussian, GMRF toy) and the log-likelihood
+gradient it uses (adjoint, finite-difference fallback). Resume: tests/test_samplers.py."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from scipy import stats
+from test_samplers import LinearGaussian, ToyGMRF
+
+from pavement_mcmc.diagnostics import ess
+from pavement_mcmc.map import find_map
+from pavement_mcmc.samplers import get_sampler
+from pavement_mcmc.samplers.loop import run_sampler
+from pavement_mcmc.storage import MemoryStore
+
+
+def _store(post, n):
+    return MemoryStore.create(post.space.free, post.blob_names, n, {"sampler": "hmc"})
+
+
+def _truncated(cut_sd=-0.3, seed=5):
+    """A correlated 3-D Gaussian posterior with p0 >= mean0 + cut_sd * sd0: the bound cuts
+    through the bulk, so the chains reflect off it all the time."""
+    post = LinearGaussian(seed=seed)
+    sd0 = np.sqrt(post.cov[0, 0])
+    a = post.mean[0] + cut_sd * sd0
+    return LinearGaussian(seed=seed, lower=[a, -np.inf, -np.inf]), a
+
+
+def test_recovers_a_gaussian_truncated_through_its_bulk():
+    """Reflection at the bound keeps the chain exact: p0 follows the truncated normal and the
+    others its linear regression on p0 (E[p_j] = m_j + S_j0/S_00 (E[p0] - m0))."""
+    post, a = _truncated()
+    s = get_sampler("hmc", post, n_chains=16, seed=2, laplace=find_map(post))
+    s.prepare()
+    store = _store(post, s.n_chains)
+    res = run_sampler(s, store, ess_target=1e9, max_steps=1500, n_adapt=150)
+    kept = store.read().chain[res.burn_in:]
+    flat = kept.reshape(-1, post.ndim)
+    assert flat[:, 0].min() >= a
+    m, S = post.mean, post.cov
+    sd0 = np.sqrt(S[0, 0])
+    tn = stats.truncnorm((a - m[0]) / sd0, np.inf, loc=m[0], scale=sd0)
+    mean = m + S[:, 0] / S[0, 0] * (tn.mean() - m[0])
+    n_eff = ess(kept)
+    assert np.all(n_eff > 2000), n_eff
+    sd = np.sqrt(np.diag(S))
+    z = (flat.mean(0) - mean) / (sd / np.sqrt(n_eff))
+    assert np.all(np.abs(z) < 4.5), z
+    np.testing.assert_allclose(flat[:, 0].std(), tn.std(), rtol=0.05)
+    # Kolmogorov-Smirnov on a thinned p0 sample against the truncated normal
+    thin = flat[:: max(1, int(flat.shape[0] / n_eff[0])), 0]
+    assert stats.kstest(thin, tn.cdf).pvalue > 1e-3
+
+
+def test_gamma_marginalised_hmc_matches_quadrature():
+    """HMC on h with gamma integrated out, then the exact gamma draw: the joint posterior's
+    gamma and h means and sds of the GMRF toy within Monte Carlo error."""
+    post = ToyGMRF()
+    s = get_sampler("hmc", post, n_chains=16, seed=4)
+    s.prepare()
+    assert s.marginal
+    store = _store(post, s.n_chains)
+    res = run_sampler(s, store, ess_target=1e9, max_steps=800, n_adapt=100)
+    kept = store.read().chain[res.burn_in:]
+    flat = kept.reshape(-1, post.ndim)
+    n_eff = ess(kept)
+    assert np.all(n_eff > 2000), n_eff
+    Eg, sg, Eh, sh = post.exact_moments()
+    mean, sd = np.r_[Eg, Eh], np.r_[sg, sh]
+    z = (flat.mean(0) - mean) / (sd / np.sqrt(n_eff))
+    assert np.all(np.abs(z) < 4.5), z
+    np.testing.assert_allclose(flat.std(0), sd, rtol=0.08)
+    d = store.read()
+    np.testing.assert_allclose(d.log_prob[-1], post(d.chain[-1])[0], rtol=0, atol=1e-8)
+
+
+def _central_grad(post, theta, rel=1e-6):
+    """Central differences of the log-likelihood through the posterior's own residual path."""
+    def ll(th):
+        return post.log_likelihood_from_residuals(post.residuals(th))
+
+    out = np.zeros_like(theta)
+    for j in range(theta.shape[1]):
+        e = rel * np.maximum(np.abs(theta[:, j]), 1e-3)
+        tp, tm = theta.copy(), theta.copy()
+        tp[:, j] += e
+        tm[:, j] -= e
+        out[:, j] = (ll(tp) - ll(tm)) / (2 * e)
+    return ll(theta), out
+
+
+@pytest.mark.parametrize("case, noisy", [("caseC", False), ("caseA", True)])
+def test_adjoint_loglik_gradient_matches_finite_differences(case, noisy):
+    """LogPosterior.loglik_and_grad by the solver's adjoint: the log-likelihood of the plain
+    path and its central differences, for Case C (114 parameters, gamma's column 0) and for
+    Case A with the inputs' noise integrated out (whitened residuals)."""
+    from conftest import REPO
+
+    from pavement_mcmc.config import load_case
+    from pavement_mcmc.problem import attach_input_noise, build_problem
+
+    pr = build_problem(load_case(REPO / "runs" / f"{case}.toml"))
+    post = pr.posterior
+    rng = np.random.default_rng(1)
+    theta = post.space.initial() * (1 + 0.05 * rng.standard_normal((3, post.ndim)))
+    theta[:, post.space.free.index("kappa")] = [1.2, 1.4, 1.6]
+    if noisy:
+        attach_input_noise(post, 0.25, theta_ref=theta[0])
+    assert post.has_gradient
+    ll, g, blobs = post.loglik_and_grad(theta)
+    ll_ref, g_ref = _central_grad(post, theta)
+    np.testing.assert_allclose(ll, ll_ref, rtol=1e-12)
+    scale = np.abs(g_ref).max(axis=1, keepdims=True)
+    np.testing.assert_allclose(g, g_ref, rtol=0, atol=2e-5 * scale.max())
+    if "gamma" in post.space.free:
+        assert np.all(g[:, post.space.free.index("gamma")] == 0.0)
+    np.testing.assert_allclose(blobs, post(theta)[1], rtol=1e-12)
+
+
+def test_models_without_adjoint_fall_back_to_finite_differences():
+    from conftest import REPO
+
+    from pavement_mcmc.config import load_case
+    from pavement_mcmc.problem import build_problem
+
+    pr = build_problem(load_case(REPO / "runs" / "caseA.toml"), extensions=["two_layer"])
+    post = pr.posterior
+    assert not post.has_gradient
+    theta = post.space.initial()[None]
+    with pytest.raises(NotImplementedError):
+        post.loglik_and_grad(theta, "adjoint")
+    ll, g, _ = post.loglik_and_grad(theta)  # auto: forward differences
+    ll_ref, g_ref = _central_grad(post, theta)
+    np.testing.assert_allclose(ll, ll_ref, rtol=1e-12)
+    np.testing.assert_allclose(g, g_ref, rtol=1e-3, atol=1e-4 * np.abs(g_ref).max())
