@@ -217,3 +217,33 @@ def test_summary() -> None:
     assert 6000 < k["ess"] < 10000 and abs(k["rhat"] - 1) < 0.01 and abs(k["geweke_z"]) < 3.5
     with pytest.raises(ValueError, match="names"):
         dg.summary(x, ["a"])
+
+
+def test_geweke_components_count_one_fluctuation_once():
+    """40 parameters sharing one AR(1) factor: an early shift of the factor by ~2.5 of its
+    standard errors (an ordinary 1-in-80 event for ONE test) flags most parameters, but only one
+    principal component; a shift 4x as large is still flagged by the components."""
+    from pavement_mcmc.diagnostics import geweke, geweke_components
+
+    rng = np.random.default_rng(3)
+    n, m, p = 1000, 8, 40
+    f = np.zeros((n, m))
+    e = rng.normal(size=(n, m))
+    for t in range(1, n):
+        f[t] = 0.8 * f[t - 1] + 0.6 * e[t]  # unit variance, tau = 9
+    load = rng.uniform(0.8, 1.2, p)
+    noise = 0.3 * rng.normal(size=(n, m, p))
+
+    def chain(shift):
+        g = f.copy()
+        g[: n // 10] += shift
+        return g[:, :, None] * load + noise
+
+    z_factor = geweke(f[:, :, None]).z[0]
+    se = float(np.sqrt(9.0 / (n // 10 * m) + 9.0 / (n // 2 * m)))  # sd of the factor's diff
+    x = chain((2.5 - z_factor) * se)  # the factor's z becomes ~2.5
+    zp = geweke(x).z
+    zc = geweke_components(x)
+    assert np.mean(np.abs(zp) >= 1.96) > 0.5
+    assert np.sum(np.abs(zc) >= 1.96) <= 0.1 * p and np.abs(zc).max() < 3.5
+    assert np.abs(geweke_components(chain(10 * se))).max() > 3.5

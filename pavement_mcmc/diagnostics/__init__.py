@@ -31,7 +31,7 @@ from .autocorr import (
 from .burnin import choose_burn_in, is_drifting, trend_z
 from .rhat import split_rhat
 from .segments import SegmentSummary, acceptance_over_time, segment_summary
-from .stationarity import GewekeResult, geweke
+from .stationarity import GewekeResult, geweke, geweke_components
 from .summarize import summary
 
 __all__ = [
@@ -45,6 +45,7 @@ __all__ = [
     "choose_burn_in",
     "ess",
     "geweke",
+    "geweke_components",
     "integrated_time",
     "is_drifting",
     "mcse",

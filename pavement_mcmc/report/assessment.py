@@ -53,8 +53,9 @@ class Assessment:
 
     def verdict_text(self) -> str:
         if self.trusted:
-            return ("The run can be trusted: every parameter passes (IACT, ESS, split-R-hat, "
-                    "Geweke) and the kept log-posterior does not drift.")
+            return ("The run can be trusted: every parameter passes IACT, ESS and split-R-hat, "
+                    "Geweke finds no more early/late differences than chance, and the kept "
+                    "log-posterior does not drift.")
         return "The run can NOT be trusted yet: " + " ".join(self.reasons)
 
 
@@ -63,8 +64,10 @@ def assess(run, burn_in: int) -> Assessment:
 
     A parameter passes if the kept chain is at least 50 integrated autocorrelation times long,
     its ESS is at least 100, split-R-hat < 1.1 and Geweke's |z| < 1.96. The run is trusted if
-    at most 10 % of the parameters fail Geweke alone (5 % fail by chance), none fails the other
-    checks, no |z| exceeds 3.5, no walker is stuck and the kept log-posterior does not drift.
+    none fails the other checks, no walker is stuck, the kept log-posterior does not drift and
+    Geweke's test on the chain's principal components (uncorrelated, unlike the parameters:
+    :func:`~pavement_mcmc.diagnostics.geweke_components`) fails for at most 10 % of them (5 %
+    by chance) with no |z| above 3.5.
 
     emcee's walkers are not independent chains: ESS and split-R-hat across walkers are
     optimistic approximations; the IACT criterion is the primary one.
@@ -113,12 +116,16 @@ def assess(run, burn_in: int) -> Assessment:
     bad_rhat = [k for k in names if not table[k]["rhat_ok"]]
     if bad_rhat:
         reasons.append(f"split-R-hat ≥ {RHAT_MAX} for {_list(bad_rhat)} (walkers disagree).")
-    if big_z or len(n_fail_gew) > max(1, 0.1 * p):
-        reasons.append(f"Geweke: early and late means differ for {_list(n_fail_gew)} "
-                       f"({len(n_fail_gew)} of {p}; about {0.05 * p:.1f} expected by chance).")
+    zc = np.abs(dg.geweke_components(kept))
+    n_comp, fail_c = zc.size, int(np.sum(~(zc < GEWEKE_Z)))
+    if big_z or np.any(~(zc <= 3.5)) or fail_c > max(1, 0.1 * n_comp):
+        reasons.append(f"Geweke: early and late means differ for {_list(n_fail_gew)}; "
+                       f"{fail_c} of {n_comp} principal components differ (about "
+                       f"{0.05 * n_comp:.1f} expected by chance).")
     elif n_fail_gew:
-        warns.append(f"Geweke |z| ≥ 1.96 for {_list(n_fail_gew)}: no more than chance "
-                     f"({0.05 * p:.1f} of {p} expected).")
+        warns.append(f"Geweke |z| ≥ 1.96 for {_list(n_fail_gew)}; for the principal components "
+                     f"{fail_c} of {n_comp}: no more than chance ({0.05 * n_comp:.1f} expected; "
+                     "correlated parameters fail together).")
     if drifting:
         reasons.append(f"the kept log-posterior still drifts (trend z = {tz:.1f}): burn-in is "
                        "not over or the chain is still moving.")
