@@ -2,12 +2,16 @@
 
 ``run(quick=False) -> list[dict]``:
 
-1. ``fast`` run to the stopping rule (ESS >= 1000 for every parameter, kept chain >= 50 tau,
-   split-R-hat < 1.01, no drift) on Case A and (not with ``quick``) Case C; wall time
-   INCLUDES the preparation (MAP, Laplace) — targets: Case A <= 2 s, Case C <= 30 s.
-2. The paper's MH, emcee's default stretch move and ``fast`` for the same fixed budget of
-   solves on each case: min ESS over parameters per 1000 solves and per second (all three
-   start from the Laplace approximation; burn-in by the loop's rule).
+1. Each case's own sampler run to the stopping rule (ESS >= 1000 for every parameter, kept
+   chain >= 50 tau, split-R-hat < 1.01, no drift): Case A ``fast``, Case C ``hmc`` (as in
+   ``runs/caseC.toml``) with the paper's priors and, as the baseline side by side, the random-walk
+   ``fast`` block move on the same Case C (not with ``quick``); wall time INCLUDES the
+   preparation (MAP, Laplace) — targets: Case A <= 2 s, Case C <= 30 s.
+2. The paper's MH, emcee's default stretch move, ``fast`` and ``hmc`` on each case for a fixed
+   budget: min ESS over parameters per 1000 solves and per second (all start from the Laplace
+   approximation; burn-in by the loop's rule). ``hmc`` runs a fixed number of steps instead
+   (its steps cost a tuned number of gradients); one gradient (a solve and its adjoint sweep)
+   is counted as :data:`GRAD_SOLVES` solves, its measured cost.
 
 ``python benchmarks/bench_samplers.py [--quick]`` prints both tables.
 """
@@ -35,13 +39,21 @@ WIDE = {"parameters": {"kappa": {"prior": {"dist": "truncnormal", "mean": 1.5, "
                        "C": {"prior": {"dist": "truncnormal", "mean": 1.5e6, "sd": 0.5e6}}}}
 
 
+#: steps of the fixed-budget hmc rows (150 of them adaptation)
+HMC_STEPS = {"caseA": 600, "caseC": 600}
+#: cost of one gradient (forward solve + adjoint sweep) in solves, measured at 16-32 sets
+GRAD_SOLVES = 3
+
+
 def _problem(case: str, overrides: dict | None = None):
     return build_problem(load_case(ROOT / "runs" / f"{case}.toml", overrides))
 
 
-def _options(pr) -> dict:
-    """The case's own sampler options (Case C: the block move)."""
+def _options(pr, kind: str) -> dict:
+    """The case's own sampler options; ``fast`` on Case C: the block move (its best)."""
     move = pr.cfg.sampler.get("move")
+    if kind == "fast" and pr.cfg.name == "caseC":
+        move = "block"
     return {"move": move} if move else {}
 
 
@@ -51,17 +63,19 @@ def _store(problem, s):
 
 
 def to_target(case: str, max_seconds: float, n_chains: int | None = None,
-              overrides: dict | None = None, label: str | None = None) -> dict:
-    """``fast`` until the stopping rule holds; wall time includes the MAP."""
+              overrides: dict | None = None, label: str | None = None, kind: str = "fast") -> dict:
+    """``kind`` until the stopping rule holds; wall time includes the MAP."""
     pr = _problem(case, overrides)
     pr.posterior(pr.space.initial()[None])  # compile / warm up outside the timing
+    if kind == "hmc":
+        pr.posterior.loglik_and_grad(pr.space.initial()[None])
     t0 = time.perf_counter()
-    s = get_sampler("fast", pr.posterior, n_chains=n_chains, seed=1, **_options(pr))
+    s = get_sampler(kind, pr.posterior, n_chains=n_chains, seed=1, **_options(pr, kind))
     s.prepare()
     st = _store(pr, s)
     res = run_sampler(s, st, ess_target=1000, max_steps=10**7, max_seconds=max_seconds)
     wall = time.perf_counter() - t0
-    return {"case": label or case, "sampler": "fast", "converged": res.converged, "wall_s": wall,
+    return {"case": label or case, "sampler": kind, "converged": res.converged, "wall_s": wall,
             "solves": res.n_evals, "steps": res.n_steps, "min_ess": float(res.ess.min()),
             "max_rhat": float(res.rhat.max()), "acceptance": res.acceptance,
             "reason": res.reason}
@@ -70,11 +84,11 @@ def to_target(case: str, max_seconds: float, n_chains: int | None = None,
 def fixed_budget(case: str, kind: str, solves: int, lap) -> dict:
     """``kind`` for ``solves`` posterior evaluations (after the shared MAP)."""
     pr = _problem(case)
-    opts = _options(pr) if kind == "fast" else {}
+    opts = _options(pr, kind) if kind in ("fast", "hmc") else {}
     s = get_sampler(kind, pr.posterior, seed=2, laplace=lap, **opts)
     s.prepare()
     st = _store(pr, s)
-    steps = max(40, solves // s.n_chains)
+    steps = HMC_STEPS[case] if kind == "hmc" else max(40, solves // s.n_chains)
     t0 = time.perf_counter()
     # adaptation: the first quarter of the budget (burn-in = adaptation + MSER)
     res = run_sampler(s, st, ess_target=1e12, max_steps=steps, n_adapt=steps // 4)
@@ -83,7 +97,7 @@ def fixed_budget(case: str, kind: str, solves: int, lap) -> dict:
     burn = min(res.burn_in, d.n_saved // 2)
     kept = d.chain[burn:]
     e = dg.ess(kept)
-    n = res.n_evals - s.n_prep_evals
+    n = (res.n_evals - s.n_prep_evals) * (GRAD_SOLVES if kind == "hmc" else 1)
     return {"case": case, "sampler": kind, "solves": n, "wall_s": wall,
             "min_ess": float(e.min()), "ess_per_1000_solves": 1000 * float(e.min()) / n,
             "ess_per_s": float(e.min()) / wall, "acceptance": float(d.accepted[burn:].mean()),
@@ -94,24 +108,27 @@ def run(quick: bool = False) -> list[dict]:
     """Both benchmarks; one dict per row (see the module docstring)."""
     warnings.simplefilter("ignore")
     rows = [to_target("caseA", 60),
-            to_target("caseC", 120, n_chains=32, overrides=WIDE, label="caseC wide priors")]
+            to_target("caseC", 120, overrides=WIDE, label="caseC wide", kind="hmc"),
+            to_target("caseC", 120, n_chains=32, overrides=WIDE, label="caseC wide")]
+    rows.append(to_target("caseC", 300, kind="hmc"))
     if not quick:
         rows.append(to_target("caseC", 1200, n_chains=32))
     budget = {"caseA": 20_000 if quick else 100_000, "caseC": 50_000 if quick else 300_000}
     for case in ("caseA", "caseC"):
         pr = _problem(case)
         lap = find_map(pr.posterior)
-        for kind in ("mh", "emcee", "fast"):
+        for kind in ("mh", "emcee", "fast", "hmc"):
             rows.append(fixed_budget(case, kind, budget[case], lap))
     return rows
 
 
 def _print(rows: list[dict]) -> None:
-    print("time to target (fast; wall includes MAP)")
-    print(f"{'case':6} {'conv':5} {'wall s':>7} {'solves':>9} {'min ESS':>8} {'max Rhat':>8}")
+    print("time to target (wall includes MAP; hmc 'solves' = gradients)")
+    print(f"{'case':10} {'sampler':7} {'conv':5} {'wall s':>7} {'solves':>9} {'min ESS':>8} "
+          f"{'max Rhat':>8}")
     for r in rows:
         if "converged" in r:
-            print(f"{r['case']:6} {r['converged']!s:5} {r['wall_s']:7.1f} {r['solves']:9d} "
+            print(f"{r['case']:10} {r['sampler']:7} {r['converged']!s:5} {r['wall_s']:7.1f} {r['solves']:9d} "
                   f"{r['min_ess']:8.0f} {r['max_rhat']:8.3f}  {r['reason'][:90]}")
     print("\nfixed budget of solves (min ESS over parameters)")
     print(f"{'case':6} {'sampler':7} {'solves':>8} {'ESS/1000 solves':>16} {'ESS/s':>8} "

@@ -53,8 +53,9 @@ def test_fit_writes_run_and_load_run_reads_it(tmp_path):
         fit(case, tmp_path / "run")
 
 
-def test_resume_equals_straight_run_hdf5(tmp_path):
-    case = _case(tmp_path, max_steps=80)
+@pytest.mark.parametrize("sampler", ["fast", "hmc"])
+def test_resume_equals_straight_run_hdf5(tmp_path, sampler):
+    case = _case(tmp_path, sampler=sampler, max_steps=80)
     fit(case, tmp_path / "straight")
     half = fit(case, tmp_path / "half", overrides={"sampler": {"max_steps": 40}})
     assert half.result.n_steps == 40

@@ -22,7 +22,7 @@ def add_parser(sub) -> None:
     p.add_argument("--add", action="append", metavar="EXT", default=[],
                    help="add a physics extension (repeatable), e.g. --add two_layer")
     add_set_option(p)
-    p.add_argument("--sampler", metavar="KIND", help="override sampler.kind: emcee, mh or fast")
+    p.add_argument("--sampler", metavar="KIND", help="override sampler.kind: emcee, mh, fast or hmc")
     p.add_argument("--seed", type=int, help="override sampler.seed")
     p.add_argument("--max-seconds", type=float, help="wall-time budget of the sampling")
     p.add_argument("--ess", type=float, help="target effective sample size per parameter")

@@ -1,5 +1,6 @@
 """Samplers by name: ``"emcee"`` (affine-invariant ensemble), ``"mh"`` (the paper's random-walk
-Metropolis–Hastings) and ``"fast"`` (MAP + Laplace-preconditioned moves + exact gamma Gibbs).
+Metropolis–Hastings), ``"fast"`` (MAP + Laplace-preconditioned moves + exact gamma Gibbs) and
+``"hmc"`` (Hamiltonian trajectories with adjoint gradients + exact gamma Gibbs).
 
 Every sampler steps many chains with one vectorised posterior call per step, returns
 :class:`~pavement_mcmc.samplers.base.Block` arrays and resumes exactly from a stored
