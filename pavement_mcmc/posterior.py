@@ -71,10 +71,12 @@ class LogPosterior:
 
     def log_likelihood_from_residuals(self, r: np.ndarray) -> np.ndarray:
         """Gaussian log-likelihood of residual arrays (..., n_obs-1, n_sensors)."""
-        z2 = np.sum(self.standardized_residuals(r) ** 2, axis=-1)
+        return self._loglik_whitened(self.standardized_residuals(r))
+
+    def _loglik_whitened(self, z: np.ndarray) -> np.ndarray:
         logdet = (self.n_data * np.log(self.sigma**2) if self.input_noise is None
                   else self.input_noise.logdet)
-        return -0.5 * (z2 + logdet + self.n_data * _LOG_2PI)
+        return -0.5 * (np.sum(z * z, axis=-1) + logdet + self.n_data * _LOG_2PI)
 
     def _weighted(self, z: np.ndarray) -> np.ndarray:
         """``W^T z`` for whitened residuals ``z`` (..., n_data) (``W = Sigma^(-1/2)``, symmetric)."""
@@ -106,7 +108,7 @@ class LogPosterior:
             pred = model.observe(T_nodes, p)
             r = pred[:, 1:, :] - self.obs
             z = self.standardized_residuals(r)
-            keep["ll"] = self.log_likelihood_from_residuals(r)
+            keep["ll"] = self._loglik_whitened(z)
             keep["rmse"] = np.sqrt(np.mean(r * r, axis=1))
             gp = np.zeros_like(pred)
             gp[:, 1:, :] = -self._weighted(z).reshape(r.shape)

@@ -160,9 +160,12 @@ class HMCSampler(FastSampler):
     def _drift(self, x: np.ndarray, p: np.ndarray, eps: np.ndarray):
         """Move for time ``eps`` (per chain) along x-velocity ``L p``, reflecting at the bounds."""
         lo, hi = self.lo[self.idx], self.hi[self.idx]
+        v = p @ self.L.T
+        xn = x + eps[:, None] * v
+        if np.all((xn >= lo) & (xn <= hi)):  # the common case: no bound reached
+            return xn, p
         rows = np.arange(x.shape[0])
         t_left = eps.copy()
-        v = p @ self.L.T
         for _ in range(1000):
             with np.errstate(divide="ignore", invalid="ignore"):
                 t_lo = np.where(v < 0, np.maximum((lo - x) / v, 0.0), np.inf)

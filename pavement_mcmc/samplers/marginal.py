@@ -215,6 +215,7 @@ def find_marginal_map(posterior, table: MarginalGMRF, theta0=None, *, em_max_ite
     history = []
     msg = ""
     D = np.diff(np.eye(gcols.size), axis=0)
+    steps: list = []  # (log gamma, log T(gamma)) of the plain EM steps since the last jump
     for it in range(em_max_iter):
         fit = optimize.least_squares(
             lambda v, g=gamma: res_fn(v[None, :], g)[0], z,
@@ -231,7 +232,8 @@ def find_marginal_map(posterior, table: MarginalGMRF, theta0=None, *, em_max_ite
             table.mean_gamma(np.sum(np.diff(h) ** 2)))
         history.append((gamma, new, S_eff))
         done = abs(np.log(new / gamma)) < em_tol
-        gamma = new
+        steps.append((np.log(gamma), np.log(new)))
+        gamma = _aitken(steps) if not done else new
         if done:
             break
     # Laplace at that gamma: Gauss-Newton of data + Gaussian priors + gamma D^T D (with
@@ -253,6 +255,24 @@ def find_marginal_map(posterior, table: MarginalGMRF, theta0=None, *, em_max_ite
     return MarginalMAP(theta=th, idx=idx, cov=0.5 * (cov + cov.T), precision=prec,
                        gamma_index=gi, hcols=idx[gcols], n_evals=res_fn.n_evals,
                        history=history, message=str(msg))
+
+
+def _aitken(steps: list) -> float:
+    """The next gamma of the EM fixed-point iteration ``u <- T(u)`` (``u = log gamma``).
+
+    The plain iteration converges linearly and slowly (ratio ~0.84 per step on Case C: 33
+    steps to 1e-3); after two plain steps ``u0 -> u1 -> u2`` it jumps to Aitken's
+    extrapolation ``u0 - (u1 - u0)^2 / (u2 - 2 u1 + u0)`` (within a factor 10 of ``gamma(u2)``)
+    and starts over. Convergence is still judged by a plain step's change."""
+    if len(steps) >= 2 and steps[-2][1] == steps[-1][0]:
+        (u0, u1), (_, u2) = steps[-2], steps[-1]
+        den = u2 - 2.0 * u1 + u0
+        if abs(den) > 1e-12:
+            jump = u0 - (u1 - u0) ** 2 / den
+            if abs(jump - u2) < np.log(10.0):
+                steps.clear()
+                return float(np.exp(jump))
+    return float(np.exp(steps[-1][1]))
 
 
 def _jac_inside(res_fn, z, lo_z, hi_z, gamma: float, rel: float = 1e-5) -> np.ndarray:
