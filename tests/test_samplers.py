@@ -298,3 +298,28 @@ def test_gamma_marginalised_resume_is_bit_for_bit(kind, move):
     A, B = st_a.read(), st_c.read()
     for field in ("chain", "log_prob", "blobs", "accepted"):
         np.testing.assert_array_equal(getattr(A, field), getattr(B, field))
+
+
+@pytest.mark.parametrize("laplace_em", [False, True])
+def test_marginal_map_is_the_em_fixed_point(laplace_em):
+    """find_marginal_map on the GMRF toy: at the plug-in fixed point (laplace_em=False) the
+    gradient of the gamma-marginal log-posterior, -(h - y)/s^2 - E[gamma | S] D^T D h, vanishes;
+    with the Laplace-corrected roughness the returned gamma is E[gamma | S_eff]. The Aitken jumps
+    get there in far fewer EM steps than the plain iteration (which needs ~30 on Case C)."""
+    from pavement_mcmc.samplers.marginal import MarginalGMRF, find_marginal_map
+
+    post = ToyGMRF(N=30, seed=5)
+    tab = MarginalGMRF(post.N, Rayleigh(post.g0), 0.0, 1e4)
+    mm = find_marginal_map(post, tab, laplace_em=laplace_em, em_tol=1e-8)
+    h, g = mm.theta[1:], mm.theta[0]
+    D = np.diff(np.eye(post.N), axis=0)
+    S = float(np.sum(np.diff(h) ** 2))
+    assert len(mm.history) < 20, len(mm.history)
+    if not laplace_em:
+        grad = -(h - post.y) / post.sigma**2 - float(tab.mean_gamma(S)) * D.T @ D @ h
+        assert np.abs(grad).max() < 1e-5 * np.abs(h - post.y).max() / post.sigma**2
+        np.testing.assert_allclose(g, tab.mean_gamma(S), rtol=1e-6)
+    else:
+        cov = np.linalg.inv(np.eye(post.N) / post.sigma**2 + g * D.T @ D)
+        S_eff = S + np.trace(D @ cov @ D.T)
+        np.testing.assert_allclose(g, tab.mean_gamma(S_eff), rtol=1e-5)
