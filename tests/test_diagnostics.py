@@ -247,3 +247,41 @@ def test_geweke_components_count_one_fluctuation_once():
     assert np.mean(np.abs(zp) >= 1.96) > 0.5
     assert np.sum(np.abs(zc) >= 1.96) <= 0.1 * p and np.abs(zc).max() < 3.5
     assert np.abs(geweke_components(chain(10 * se))).max() > 3.5
+
+
+def test_tau_of_antithetic_chains_sees_a_slow_positive_tail():
+    """x = -0.7 * previous noise + a slow AR(1) part: lag-1 correlation about -0.4 (Sokal's window
+    closes at lag 1) but a positive tail; the estimate follows the true tau (Geyer), not 0.1."""
+    from pavement_mcmc.diagnostics import integrated_time
+
+    rng = np.random.default_rng(0)
+    n, m = 20000, 8
+    e = rng.normal(size=(n + 1, m))
+    fast = e[1:] - 0.9 * e[:-1]  # MA(1): rho1 = -0.9/1.81
+    slow = np.zeros((n, m))
+    u = rng.normal(size=(n, m))
+    for t in range(1, n):
+        slow[t] = 0.95 * slow[t - 1] + np.sqrt(1 - 0.95**2) * u[t]
+    x = fast + 0.35 * slow
+    v_f, v_s = 1.81, 0.35**2
+    rho = lambda k: (np.where(k == 1, -0.9, 0.0) + v_s * 0.95**k) / (v_f + v_s)  # noqa: E731
+    k = np.arange(1, 400)
+    true_tau = 1 + 2 * rho(k).sum()
+    assert rho(np.array([1]))[0] < -0.4
+    tau = integrated_time(x[:, :, None], quiet=True)[0]
+    assert abs(tau - true_tau) < 0.3 * true_tau, (tau, true_tau)
+
+
+def test_geweke_components_do_not_depend_on_units():
+    """A parameter in tiny units (kappa next to C in J m-3 K-1) that shifts early is caught."""
+    from pavement_mcmc.diagnostics import geweke_components
+
+    rng = np.random.default_rng(4)
+    x = rng.normal(size=(800, 8, 3))
+    x[:80, :, 0] += 1.0  # an early shift of ~8 standard errors in parameter 0
+    x[:, :, 0] *= 1e-3
+    x[:, :, 1] *= 2e4
+    x[:, :, 2] = 1e6 + 2e4 * x[:, :, 2]
+    assert np.abs(geweke_components(x)).max() > 3.5
+    x[:80, :, 0] -= 1e-3
+    assert np.abs(geweke_components(x)).max() < 3.5

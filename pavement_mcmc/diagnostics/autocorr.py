@@ -68,10 +68,25 @@ def _sokal_tau(x: np.ndarray, c: float) -> np.ndarray:
     window = np.where(inside.all(axis=0), n - 1, np.argmin(inside, axis=0))
     tau = taus[window, np.arange(taus.shape[1])]
     constant = np.all(rho == 1.0, axis=0) & (n > 1)
-    # antithetic chains (HMC) have negative lag-1 correlations and tau < 1, down to nonsense
-    # negative values; as Stan does, cap the ESS at N log10 N (N = all draws)
+    # antithetic chains (HMC, tau < 1): a lag-1 correlation below -0.4 closes Sokal's window at
+    # lag 1 and hides any slow positive tail, so there take at least Geyer's initial monotone
+    # sequence estimate; and, as Stan does, cap the ESS at N log10 N (N = all draws)
     floor = 1.0 / np.log10(max(x.size // (x.shape[2] if x.ndim == 3 else 1), 10))
+    tau = np.where(tau < 1.0, np.maximum(tau, _geyer_tau(rho)), tau)
     return np.where(constant, np.inf, np.maximum(tau, floor))
+
+
+def _geyer_tau(rho: np.ndarray) -> np.ndarray:
+    """Geyer's (1992) initial monotone sequence estimate from autocorrelations (n_lags, p):
+    ``tau = -1 + 2 sum_k P_k``, ``P_k = rho(2k) + rho(2k+1)`` up to the first negative pair sum,
+    each made no larger than the one before."""
+    m = rho.shape[0] // 2
+    if m == 0:
+        return np.ones(rho.shape[1])
+    P = rho[: 2 * m : 2] + rho[1 : 2 * m : 2]
+    positive = np.cumprod(P > 0, axis=0).astype(bool)
+    P = np.minimum.accumulate(np.where(positive, P, 0.0), axis=0)
+    return -1.0 + 2.0 * P.sum(axis=0)
 
 
 def integrated_time(x: np.ndarray, c: float = 5, tol: float = 50, quiet: bool = False) -> np.ndarray:
@@ -80,8 +95,10 @@ def integrated_time(x: np.ndarray, c: float = 5, tol: float = 50, quiet: bool = 
     .. math:: \tau = 1 + 2 \sum_{k=1}^{M} \rho(k),
 
     with :math:`\rho` the FFT autocorrelation averaged over chains (as in emcee's
-    ``autocorr.integrated_time``), at least :math:`1/\log_{10} N` (N draws in all: the ESS is
-    capped at :math:`N \log_{10} N`, as in Stan, for antithetic chains), and the window
+    ``autocorr.integrated_time``); where that is below 1 (antithetic chains: the window may close
+    at lag 1) at least Geyer's initial monotone sequence estimate; at least
+    :math:`1/\log_{10} N` (N draws in all: the ESS is capped at :math:`N \log_{10} N`, as in
+    Stan), and the window
     :math:`M` the smallest lag with :math:`M \ge c\, \tau(M)` (Sokal 1997, p. 16; Goodman & Weare 2010).
 
     Parameters

@@ -110,14 +110,18 @@ def geweke_components(x: np.ndarray, first: float = 0.1, last: float = 0.5) -> n
     Correlated parameters (Case C's 112 smooth h values) fail Geweke together: one ordinary
     2-3 sigma fluctuation of their common level flags twenty of them, so counting flagged
     parameters against the 5 % expected by chance is wrong for them. The chain's pooled
-    covariance is diagonalised and :func:`geweke` applied to each component with nonzero
-    variance (relative eigenvalue > 1e-12): the components are uncorrelated, so about 5 % of
-    them have ``|z| >= 1.96`` for a stationary chain. Returns their z values.
+    correlation matrix (the parameters standardised first, so units do not matter) is
+    diagonalised and :func:`geweke` applied to each component with nonzero variance (relative
+    eigenvalue > 1e-10): the components are uncorrelated at lag 0, so roughly 5 % of them have
+    ``|z| >= 1.96`` for a stationary chain. Parameters that never move are left out. Returns
+    their z values.
     """
     x = _as_3d(np.asarray(x, float))
     flat = x.reshape(-1, x.shape[2])
-    cov = np.atleast_2d(np.cov(flat, rowvar=False))
-    e, V = np.linalg.eigh(0.5 * (cov + cov.T))
-    keep = e > 1e-12 * max(float(e.max()), 1e-300)
-    comp = (x - flat.mean(axis=0)) @ V[:, keep]
-    return geweke(comp, first, last).z
+    sd = flat.std(axis=0)
+    moving = sd > 0
+    y = (x[:, :, moving] - flat[:, moving].mean(axis=0)) / sd[moving]
+    corr = np.atleast_2d(np.cov(y.reshape(-1, y.shape[2]), rowvar=False))
+    e, V = np.linalg.eigh(0.5 * (corr + corr.T))
+    keep = e > 1e-10 * max(float(e.max()), 1e-300)
+    return geweke(y @ V[:, keep], first, last).z

@@ -116,7 +116,7 @@ def assess(run, burn_in: int) -> Assessment:
     bad_rhat = [k for k in names if not table[k]["rhat_ok"]]
     if bad_rhat:
         reasons.append(f"split-R-hat ≥ {RHAT_MAX} for {_list(bad_rhat)} (walkers disagree).")
-    zc = np.abs(dg.geweke_components(kept))
+    zc = np.abs(dg.geweke_components(kept[:: max(1, -(-nk // 4000))]))  # thinned as summary
     n_comp, fail_c = zc.size, int(np.sum(~(zc < GEWEKE_Z)))
     if big_z or np.any(~(zc <= 3.5)) or fail_c > max(1, 0.1 * n_comp):
         reasons.append(f"Geweke: early and late means differ for {_list(n_fail_gew)}; "
