@@ -40,6 +40,7 @@ class LogPosterior:
         self.sigma = float(model.meas.sigma)
         self.n_data = self.obs.size
         self.input_noise = None  # an InputNoise, or None: boundary and initial data exact
+        self._grad_cols = None  # (model gradient names, source and free columns), cached
 
     @property
     def names(self) -> list[str]:
@@ -92,8 +93,9 @@ class LogPosterior:
         (n, n_sensors), for rows inside the bounds.
 
         ``method``: ``"adjoint"`` (the solver's discrete adjoint, about 1.5-2 log-posterior
-        evaluations; needs :attr:`has_gradient`), ``"fd"`` (central differences, ``2 n_free + 1``
-        solves per row, relative step ``fd_step``), or ``"auto"`` (the adjoint when available).
+        evaluations; needs :attr:`has_gradient`), ``"fd"`` (central differences, one-sided at a
+        bound, ``2 n_free + 1`` solves per row, relative step ``fd_step``), or ``"auto"`` (the
+        adjoint when available).
         """
         theta = np.atleast_2d(np.asarray(theta, float))
         if method not in ("auto", "adjoint", "fd"):
@@ -108,14 +110,16 @@ class LogPosterior:
             pred = model.observe(T_nodes, p)
             r = pred[:, 1:, :] - self.obs
             z = self.standardized_residuals(r)
-            keep["ll"] = self._loglik_whitened(z)
+            ll = self._loglik_whitened(z)
+            ok = np.isfinite(ll)
+            keep["ll"] = np.where(ok, ll, -np.inf)
             keep["rmse"] = np.sqrt(np.mean(r * r, axis=1))
             gp = np.zeros_like(pred)
-            gp[:, 1:, :] = -self._weighted(z).reshape(r.shape)
-            return model.observe_nominal_transpose(gp)
+            gp[:, 1:, :] = -self._weighted(np.where(ok[:, None], z, 0.0)).reshape(r.shape)
+            return model.observe_nominal_transpose(gp)  # rows with a non-finite fit: 0
 
         _, names, G = model.solve_vjp(p, cotangent)
-        if getattr(self, "_grad_cols", (None,))[0] != names:
+        if self._grad_cols is None or self._grad_cols[0] != names:
             col = {n: i for i, n in enumerate(self.space.free)}
             pairs = [(j, col[n]) for j, n in enumerate(names) if n in col]
             self._grad_cols = (names, np.array([a for a, _ in pairs]), np.array([b for _, b in pairs]))
@@ -125,16 +129,20 @@ class LogPosterior:
         return keep["ll"], grad, keep["rmse"]
 
     def _loglik_and_grad_fd(self, theta: np.ndarray, fd_step: float):
+        """Central differences, one-sided where a bound is closer than the step (h = 0)."""
         n, d = theta.shape
+        lo, hi = self.space.bounds()
         step = fd_step * np.maximum(np.abs(theta), 1e-3)
+        up, down = np.minimum(theta + step, hi), np.maximum(theta - step, lo)
         X = np.repeat(theta[:, None, :], 2 * d + 1, axis=1)
-        X[:, 1 + np.arange(d), np.arange(d)] += step
-        X[:, 1 + d + np.arange(d), np.arange(d)] -= step
+        X[:, 1 + np.arange(d), np.arange(d)] = up
+        X[:, 1 + d + np.arange(d), np.arange(d)] = down
         with np.errstate(all="ignore"):
             r = self.residuals(X.reshape(-1, d))
             ll = self.log_likelihood_from_residuals(r).reshape(n, 2 * d + 1)
             rmse = np.sqrt(np.mean(r * r, axis=1)).reshape(n, 2 * d + 1, -1)[:, 0]
-        return ll[:, 0], (ll[:, 1:d + 1] - ll[:, d + 1:]) / (2 * step), rmse
+            grad = (ll[:, 1:d + 1] - ll[:, d + 1:]) / (up - down)
+        return ll[:, 0], np.where(up > down, grad, 0.0), rmse
 
     def pointwise_log_likelihood(self, theta: np.ndarray) -> np.ndarray:
         """Log-likelihood of each datum, (n_sets, n_obs - 1, n_sensors) (for ArviZ / LOO).

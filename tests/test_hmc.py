@@ -131,7 +131,7 @@ def test_models_without_adjoint_fall_back_to_finite_differences():
     theta = post.space.initial()[None]
     with pytest.raises(NotImplementedError):
         post.loglik_and_grad(theta, "adjoint")
-    ll, g, _ = post.loglik_and_grad(theta)  # auto: forward differences
+    ll, g, _ = post.loglik_and_grad(theta)  # auto: central differences
     ll_ref, g_ref = _central_grad(post, theta)
     np.testing.assert_allclose(ll, ll_ref, rtol=1e-12)
     np.testing.assert_allclose(g, g_ref, rtol=1e-3, atol=1e-4 * np.abs(g_ref).max())

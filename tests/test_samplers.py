@@ -290,7 +290,7 @@ def test_gamma_marginalised_resume_is_bit_for_bit(kind, move):
     run_sampler(a, st_a, ess_target=1e9, max_steps=n, n_adapt=50)
     b = prep()
     st_b = _store(post, b.n_chains)
-    run_sampler(b, st_b, ess_target=1e9, max_steps=n // 2 - 30, n_adapt=50)  # inside adaptation
+    run_sampler(b, st_b, ess_target=1e9, max_steps=n // 2 - 25, n_adapt=50)  # inside adaptation
     c = get_sampler(kind, post, first_window=20, move=move, metric_at=40)
     c.set_state(st_b.state)
     st_c = MemoryStore.open_append(st_b)

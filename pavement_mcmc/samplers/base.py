@@ -26,7 +26,8 @@ class Block:
     logp : (n_steps, n_chains) log-posterior at those positions.
     blobs : (n_steps, n_chains, n_sensors) RMSE per sensor, degC.
     accepted : (n_steps, n_chains) bool, was the (solver-evaluated) proposal accepted.
-    n_evals : number of parameter sets the posterior evaluated (solves) for this block.
+    n_evals : number of parameter sets the posterior evaluated (solves) for this block; for
+        ``hmc`` the gradient evaluations (each a solve and an adjoint sweep).
     """
 
     chain: np.ndarray

@@ -2,7 +2,8 @@ r"""Hamiltonian Monte Carlo with the Laplace covariance as metric, reflection at
 
 The sampler for Case C: the random walks of :mod:`.fast` need ~100 autocorrelation times of
 ~500 steps there (116 unknowns, night h against h >= 0), while a Hamiltonian trajectory moves
-all of them at once along the gradient, which the solver's adjoint gives for about two solves.
+all of them at once along the gradient, which the solver's adjoint gives for about 1.5
+log-posterior evaluations (a solve and its reverse sweep).
 
 Target: with a free smoothness precision gamma (Case C), the posterior of x = every free
 parameter but gamma with gamma integrated out, log-likelihood + univariate log-priors +
@@ -37,9 +38,10 @@ from __future__ import annotations
 import numpy as np
 
 from ..map import find_map
-from .base import Block, start_points
-from .fast import FastSampler
+from .base import Block, Sampler, start_points
+from .gamma import GammaGibbsMixin
 from .marginal import gmrf_of
+from .marginal_rw import MarginalRWMixin
 
 #: dual-averaging constants (Hoffman & Gelman 2014, section 3.2)
 _DA_GAMMA, _DA_T0, _DA_KAPPA = 0.05, 10.0, 0.75
@@ -50,7 +52,7 @@ _SCALARS = ("log_eps", "log_eps_bar", "hbar", "mu", "k_adapt", "k_da", "n_leapfr
 _ARRAYS = ("idx", "hcols", "hpos", "L", "f", "g", "loglik", "win_1", "win_2")
 
 
-class HMCSampler(FastSampler):
+class HMCSampler(MarginalRWMixin, GammaGibbsMixin, Sampler):
     """Reflective HMC with a Laplace metric (see the module docstring).
 
     Options

@@ -233,9 +233,12 @@ def find_marginal_map(posterior, table: MarginalGMRF, theta0=None, *, em_max_ite
         history.append((gamma, new, S_eff))
         done = abs(np.log(new / gamma)) < em_tol
         steps.append((np.log(gamma), np.log(new)))
-        gamma = _aitken(steps) if not done else new
         if done:
+            gamma = new
             break
+        gamma = _aitken(steps, table.lower, table.upper)
+    else:
+        gamma = new  # out of iterations: the last plain step, not an untried jump
     # Laplace at that gamma: Gauss-Newton of data + Gaussian priors + gamma D^T D (with
     # ``laplace_em``), else the exact Hessian of -log F at the marginal mode
     J = _jac_inside(res_fn, z, lo_z, hi_z, gamma if laplace_em else 0.0)
@@ -257,19 +260,21 @@ def find_marginal_map(posterior, table: MarginalGMRF, theta0=None, *, em_max_ite
                        history=history, message=str(msg))
 
 
-def _aitken(steps: list) -> float:
+def _aitken(steps: list, lower: float, upper: float) -> float:
     """The next gamma of the EM fixed-point iteration ``u <- T(u)`` (``u = log gamma``).
 
     The plain iteration converges linearly and slowly (ratio ~0.84 per step on Case C: 33
-    steps to 1e-3); after two plain steps ``u0 -> u1 -> u2`` it jumps to Aitken's
-    extrapolation ``u0 - (u1 - u0)^2 / (u2 - 2 u1 + u0)`` (within a factor 10 of ``gamma(u2)``)
-    and starts over. Convergence is still judged by a plain step's change."""
-    if len(steps) >= 2 and steps[-2][1] == steps[-1][0]:
+    steps to 1e-3); after two plain steps ``u0 -> u1 -> u2`` (``steps`` holds the plain steps
+    since the last jump) it jumps to Aitken's extrapolation
+    ``u0 - (u1 - u0)^2 / (u2 - 2 u1 + u0)`` if that stays within a factor 10 of ``gamma(u2)``
+    and inside ``(lower, upper)``, and starts over. Convergence is still judged by a plain
+    step's change."""
+    if len(steps) >= 2:
         (u0, u1), (_, u2) = steps[-2], steps[-1]
         den = u2 - 2.0 * u1 + u0
         if abs(den) > 1e-12:
             jump = u0 - (u1 - u0) ** 2 / den
-            if abs(jump - u2) < np.log(10.0):
+            if abs(jump - u2) < np.log(10.0) and lower < np.exp(jump) < upper:
                 steps.clear()
                 return float(np.exp(jump))
     return float(np.exp(steps[-1][1]))
