@@ -11,43 +11,11 @@ from numba import njit
 
 from pavement_mcmc._kernels import _FM, _lin
 from pavement_mcmc._kernels_adjoint import slot_layout
+from pavement_mcmc._kernels_scalar import _be_half, _cn_full, _scalar_factor
 
 # ---------------------------------------------------------------------------------------------
 # A few sets: one set at a time with scalar loops over depth (the sets-innermost loops above are
 # all set-up for 1-4 sets), as _kernels_scalar.cn_scalar. Stored states only, N >= 2.
-
-
-@njit(cache=True, fastmath=_FM)
-def _scalar_factor(kappaT, CT, s, dx, r, l, u, g, invD, gt):
-    """Rates and bottom-up factorisation of ``I + r A`` for set ``s`` exactly as ``cn_scalar``;
-    also the transpose gains ``gt``. Returns ``(d0, hc)`` (surface pivot without ``h``, r hs)."""
-    N = l.shape[0]
-    inv_dx2 = 1.0 / (dx * dx)
-    # a[N-1], c[N-1] as cn_scalar computes them
-    inv = inv_dx2 / CT[N - 1, s]
-    l[N - 1] = r * (kappaT[N - 2, s] * inv)
-    u[N - 1] = r * (kappaT[N - 1, s] * inv)
-    invD[N - 1] = 1.0 / (1.0 + l[N - 1] + u[N - 1])
-    d0 = 0.0
-    for i in range(N - 2, -1, -1):
-        if i == 0:
-            a_i = 0.0
-            c_i = 2.0 * kappaT[0, s] * inv_dx2 / CT[0, s]
-        else:
-            inv = inv_dx2 / CT[i, s]
-            a_i = kappaT[i - 1, s] * inv
-            c_i = kappaT[i, s] * inv
-        l[i] = r * a_i
-        u[i] = r * c_i
-        g[i + 1] = u[i] * invD[i + 1]
-        dd = 1.0 + l[i] + u[i] - g[i + 1] * l[i + 1]
-        if i > 0:
-            invD[i] = 1.0 / dd
-        else:
-            d0 = dd
-    for i in range(1, N):
-        gt[i] = l[i] * invD[i]
-    return d0, r * (2.0 / (CT[0, s] * dx))
 
 
 @njit(cache=True)
@@ -97,12 +65,7 @@ def fwd_scalar(kappaT, CT, hT, qT, T_air, T_bot, T0, t_obs, substeps, dx, n_star
                         Ta = _lin(T_air[j], T_air[j + 1], wk)
                         Tb = _lin(T_bot[j], T_bot[j + 1], wk)
                         qk = hc * _lin(qa, qb, wk)
-                        R[N - 1] = T[N - 1] + u[N - 1] * Tb
-                        for i in range(N - 2, 0, -1):
-                            R[i] = T[i] + g[i + 1] * R[i + 1]
-                        Tn[0] = (T[0] + hh * Ta + qk + g[1] * R[1]) * invD0
-                        for i in range(1, N):
-                            Tn[i] = (R[i] + l[i] * Tn[i - 1]) * invD[i]
+                        _be_half(T, Tn, R, l, u, g, invD, invD0, hh, Ta, Tb, qk)
                         k += 1
                 else:
                     T = st[s, k]
@@ -110,16 +73,7 @@ def fwd_scalar(kappaT, CT, hT, qT, T_air, T_bot, T0, t_obs, substeps, dx, n_star
                     Ta_sum = _lin(T_air[j], T_air[j + 1], w0) + _lin(T_air[j], T_air[j + 1], w1)
                     Tb_sum = _lin(T_bot[j], T_bot[j + 1], w0) + _lin(T_bot[j], T_bot[j + 1], w1)
                     q_sum = hc * (_lin(qa, qb, w0) + _lin(qa, qb, w1))
-                    t = T[N - 1]
-                    R[N - 1] = t + l[N - 1] * (T[N - 2] - t) + u[N - 1] * (Tb_sum - t)
-                    for i in range(N - 2, 0, -1):
-                        t = T[i]
-                        R[i] = t + l[i] * (T[i - 1] - t) + u[i] * (T[i + 1] - t) + g[i + 1] * R[i + 1]
-                    t = T[0]
-                    rr = t + u[0] * (T[1] - t) + hh * (Ta_sum - t) + q_sum + g[1] * R[1]
-                    Tn[0] = rr * invD0
-                    for i in range(1, N):
-                        Tn[i] = (R[i] + l[i] * Tn[i - 1]) * invD[i]
+                    _cn_full(T, Tn, R, l, u, g, invD, invD0, hh, Ta_sum, Tb_sum, q_sum)
                     k += 1
             for i in range(N):
                 out[j + 1, i, s] = st[s, k, i]
