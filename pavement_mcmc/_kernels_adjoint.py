@@ -2,9 +2,8 @@
 
 Internal module; the public API and the derivation live in :mod:`pavement_mcmc.adjoint`, the
 notation and the sets-innermost layout in :mod:`pavement_mcmc._kernels`. The steps are those of
-the forward kernel (:func:`_cn_step_to` and :func:`_be_step_to` are out-of-place copies of
-``_kernels._cn_step`` / ``_be_step`` with the same arithmetic; the factorisation is
-``_kernels._prepare``).
+the forward kernel's own (``_kernels._cn_step`` / ``_be_step`` on a copy of the state in the
+next slot; the factorisation is ``_kernels._prepare``).
 
 State slots. Every solver state of the run gets a slot: slot 0 is ``T0``; a Crank-Nicolson step
 adds one slot, a step replaced by two backward-Euler half steps two (midpoint, end).
@@ -38,7 +37,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit, prange
 
-from pavement_mcmc._kernels import _FM, _lin, _prepare, _store, _surface_pivot
+from pavement_mcmc._kernels import _FM, _be_step, _cn_step, _lin, _prepare, _store, _surface_pivot
 
 
 @njit(cache=True)
@@ -66,49 +65,6 @@ def _transpose_gain(l, invD, gt):
     for i in range(1, N):
         for s in range(nb):
             gt[i, s] = l[i, s] * invD[i, s]
-
-
-@njit(cache=True, fastmath=_FM)
-def _cn_step_to(T, Tn, R, l, u, g, invD0, hh, Ta_sum, Tb_sum, q_sum, invD):
-    """:func:`pavement_mcmc._kernels._cn_step` (same arithmetic) from ``T`` into ``Tn``.
-
-    Kept as a copy: calling this with ``Tn = T`` from ``_cn_step`` made the forward solver
-    ~35 % slower (measured, 32 and 256 sets: the possible aliasing blocks vectorisation)."""
-    N, nb = T.shape
-    i = N - 1
-    for s in range(nb):
-        t = T[i, s]
-        R[i, s] = t + l[i, s] * (T[i - 1, s] - t) + u[i, s] * (Tb_sum - t)
-    for i in range(N - 2, 0, -1):
-        for s in range(nb):
-            t = T[i, s]
-            R[i, s] = (
-                t + l[i, s] * (T[i - 1, s] - t) + u[i, s] * (T[i + 1, s] - t) + g[i + 1, s] * R[i + 1, s]
-            )
-    for s in range(nb):
-        t = T[0, s]
-        rr = t + u[0, s] * (T[1, s] - t) + hh[s] * (Ta_sum - t) + q_sum[s] + g[1, s] * R[1, s]
-        Tn[0, s] = rr * invD0[s]
-    for i in range(1, N):
-        for s in range(nb):
-            Tn[i, s] = (R[i, s] + l[i, s] * Tn[i - 1, s]) * invD[i, s]
-
-
-@njit(cache=True, fastmath=_FM)
-def _be_step_to(T, Tn, R, l, u, g, invD0, hh, Ta1, Tb1, q1, invD):
-    """:func:`pavement_mcmc._kernels._be_step` (same arithmetic) from ``T`` into ``Tn``."""
-    N, nb = T.shape
-    i = N - 1
-    for s in range(nb):
-        R[i, s] = T[i, s] + u[i, s] * Tb1
-    for i in range(N - 2, 0, -1):
-        for s in range(nb):
-            R[i, s] = T[i, s] + g[i + 1, s] * R[i + 1, s]
-    for s in range(nb):
-        Tn[0, s] = (T[0, s] + hh[s] * Ta1 + q1[s] + g[1, s] * R[1, s]) * invD0[s]
-    for i in range(1, N):
-        for s in range(nb):
-            Tn[i, s] = (R[i, s] + l[i, s] * Tn[i - 1, s]) * invD[i, s]
 
 
 @njit(cache=True, fastmath=_FM)
@@ -199,14 +155,16 @@ def _advance(st, k, j, ns, first_j, n_start, damp, T_air, T_bot, qa, qb, w, z):
                     qs[s] = hc[s] * _lin(qa[s], qb[s], wb)
                 Ta = _lin(T_air[j], T_air[j + 1], wb)
                 Tb = _lin(T_bot[j], T_bot[j + 1], wb)
-                _be_step_to(st[k], st[k + 1], R, l, u, g, invD0, hh, Ta, Tb, qs, invD)
+                st[k + 1, :, :] = st[k]
+                _be_step(st[k + 1], R, l, u, g, invD0, hh, Ta, Tb, qs, invD)
                 k += 1
         else:
             Ta_sum = _lin(T_air[j], T_air[j + 1], w0) + _lin(T_air[j], T_air[j + 1], w1)
             Tb_sum = _lin(T_bot[j], T_bot[j + 1], w0) + _lin(T_bot[j], T_bot[j + 1], w1)
             for s in range(nb):
                 qs[s] = hc[s] * (_lin(qa[s], qb[s], w0) + _lin(qa[s], qb[s], w1))
-            _cn_step_to(st[k], st[k + 1], R, l, u, g, invD0, hh, Ta_sum, Tb_sum, qs, invD)
+            st[k + 1, :, :] = st[k]
+            _cn_step(st[k + 1], R, l, u, g, invD0, hh, Ta_sum, Tb_sum, qs, invD)
             k += 1
     return k
 
