@@ -20,8 +20,8 @@ sys.path.insert(0, str(ROOT))
 
 import numpy as np  # noqa: E402
 
-from pavement_mcmc.config import load_case  # noqa: E402
-from pavement_mcmc.problem import build_problem  # noqa: E402
+from pavement_mcmc.data import load_case  # noqa: E402
+from pavement_mcmc.posterior import build_problem  # noqa: E402
 
 
 def _median_time(fn, repeats: int) -> float:

@@ -27,11 +27,10 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 from pavement_mcmc import diagnostics as dg  # noqa: E402
-from pavement_mcmc.config import load_case  # noqa: E402
-from pavement_mcmc.map import find_map  # noqa: E402
-from pavement_mcmc.problem import build_problem  # noqa: E402
+from pavement_mcmc.data import load_case  # noqa: E402
+from pavement_mcmc.posterior import build_problem, find_map  # noqa: E402
+from pavement_mcmc.runs import run_sampler  # noqa: E402
 from pavement_mcmc.samplers import get_sampler  # noqa: E402
-from pavement_mcmc.samplers.loop import run_sampler  # noqa: E402
 from pavement_mcmc.storage import MemoryStore  # noqa: E402
 
 #: kappa and C priors wide enough not to conflict with the reference data (truth 1.31, 0.99e6)

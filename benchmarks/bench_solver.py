@@ -20,8 +20,10 @@ os.environ.setdefault("OMP_NUM_THREADS", "1")  # the solver uses no BLAS; keep N
 
 import numpy as np  # noqa: E402
 
-from pavement_mcmc.data import read_csv_case
-from pavement_mcmc.measurements import Measurements  # noqa: E402
+from pavement_mcmc.data import (
+    Measurements,  # noqa: E402
+    read_csv_case,
+)
 from pavement_mcmc.solver import (  # noqa: E402
     DEFAULT_DT,
     DEFAULT_DX,

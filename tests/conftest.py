@@ -12,7 +12,7 @@ REPO = Path(__file__).resolve().parents[1]
 @pytest.fixture(scope="session")
 def tiny_run(tmp_path_factory) -> Path:
     """A 300-step, 12-walker emcee run of Case A, made once per session (~2 s)."""
-    from pavement_mcmc.runner import fit
+    from pavement_mcmc.runs import fit
 
     root = tmp_path_factory.getbasetemp() / "tiny_caseA"
     fit(REPO / "runs" / "caseA.toml", root, overwrite=True, seed=3,

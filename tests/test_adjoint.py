@@ -1,4 +1,4 @@
-"""The discrete adjoint (:func:`pavement_mcmc.adjoint.solve_vjp`) against the forward solver.
+"""The discrete adjoint (:func:`pavement_mcmc.solver.adjoint.solve_vjp`) against the forward solver.
 
 The forward output must be the solver's; the gradients of a random quadratic loss must match
 central finite differences of :func:`pavement_mcmc.solver.solve` for every coefficient.
@@ -12,10 +12,9 @@ import numba
 import numpy as np
 import pytest
 
-from pavement_mcmc import adjoint, solver
-from pavement_mcmc.adjoint import solve_vjp
 from pavement_mcmc.data import read_csv_case
-from pavement_mcmc.solver import Coefficients, Forcing, Grid, solve
+from pavement_mcmc.solver import Coefficients, Forcing, Grid, adjoint, solve, solve_vjp
+from pavement_mcmc.solver import forward as solver
 
 CASE = Path(__file__).resolve().parents[1] / "data" / "reference_case" / "measurements.csv"
 NAMES = ("kappa", "C", "h", "q")

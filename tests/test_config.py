@@ -1,4 +1,4 @@
-"""Tests for pavement_mcmc.config: case TOML loading, validation and overrides."""
+"""Tests for pavement_mcmc.data: case TOML loading, validation and overrides."""
 
 from __future__ import annotations
 
@@ -8,18 +8,18 @@ from pathlib import Path
 
 import pytest
 
-from pavement_mcmc.config import (
+from pavement_mcmc.data import (
     DATA_KEYS,
     GRID_DEFAULTS,
     SAMPLER_DEFAULTS,
     SECTIONS,
     ConfigError,
+    DataError,
     dump_config,
     load_case,
     merge_overrides,
     parse_set,
 )
-from pavement_mcmc.data import DataError
 
 ROOT = Path(__file__).resolve().parents[1]
 RUNS = ROOT / "runs"

@@ -5,10 +5,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from pavement_mcmc.config import load_case
 from pavement_mcmc.criticism import analyse, finer_h_spec, ledger, refit
 from pavement_mcmc.criticism.residuals import harmonic, lag1, ljung_box
-from pavement_mcmc.problem import build_problem
+from pavement_mcmc.data import load_case
+from pavement_mcmc.posterior import build_problem
 
 
 def test_lag1_of_ar1():

@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from pavement_mcmc import export, report
+from pavement_mcmc.runs import export, load_view
 
 REPO = Path(__file__).resolve().parents[1]
 
@@ -21,7 +21,7 @@ def test_missing_arviz_gives_a_clear_error(monkeypatch):
 
 def test_export_round_trip(tiny_run, tmp_path):
     az = pytest.importorskip("arviz")
-    view = report.load_view(tiny_run)
+    view = load_view(tiny_run)
     out = export.export_netcdf(view, tmp_path / "run.nc", thin=5)
     data = az.from_netcdf(str(out))
     groups = set(data.groups() if callable(getattr(data, "groups", None)) else data.children)

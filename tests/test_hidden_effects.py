@@ -17,9 +17,9 @@ import numpy as np
 import pytest
 
 from pavement_mcmc import synthetic
-from pavement_mcmc.config import load_case
 from pavement_mcmc.criticism import diagnose, refit
-from pavement_mcmc.problem import build_problem
+from pavement_mcmc.data import load_case
+from pavement_mcmc.posterior import build_problem
 from pavement_mcmc.synthetic import SyntheticSpec, default_effect, write_case
 
 CASE = """

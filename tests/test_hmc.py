@@ -9,9 +9,9 @@ from scipy import stats
 from test_samplers import LinearGaussian
 
 from pavement_mcmc.diagnostics import ess
-from pavement_mcmc.map import find_map
+from pavement_mcmc.posterior import find_map
+from pavement_mcmc.runs import run_sampler
 from pavement_mcmc.samplers import get_sampler
-from pavement_mcmc.samplers.loop import run_sampler
 from pavement_mcmc.storage import MemoryStore
 
 
@@ -76,8 +76,8 @@ def test_adjoint_loglik_gradient_matches_finite_differences(case, noisy):
     Case A with the inputs' noise integrated out (whitened residuals)."""
     from conftest import REPO
 
-    from pavement_mcmc.config import load_case
-    from pavement_mcmc.problem import attach_input_noise, build_problem
+    from pavement_mcmc.data import load_case
+    from pavement_mcmc.posterior import attach_input_noise, build_problem
 
     pr = build_problem(load_case(REPO / "runs" / f"{case}.toml"))
     post = pr.posterior
@@ -100,8 +100,8 @@ def test_adjoint_loglik_gradient_matches_finite_differences(case, noisy):
 def test_models_without_adjoint_fall_back_to_finite_differences():
     from conftest import REPO
 
-    from pavement_mcmc.config import load_case
-    from pavement_mcmc.problem import build_problem
+    from pavement_mcmc.data import load_case
+    from pavement_mcmc.posterior import build_problem
 
     pr = build_problem(load_case(REPO / "runs" / "caseA.toml"), extensions=["two_layer"])
     post = pr.posterior

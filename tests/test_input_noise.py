@@ -5,10 +5,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from pavement_mcmc.input_noise import InputNoise, input_jacobian
 from pavement_mcmc.physics import HBasis, Model
-from pavement_mcmc.posterior import LogPosterior
-from pavement_mcmc.problem import attach_input_noise
+from pavement_mcmc.posterior import LogPosterior, attach_input_noise
+from pavement_mcmc.posterior.input_noise import InputNoise, input_jacobian
 from pavement_mcmc.solver import Forcing, Grid, solve
 from pavement_mcmc.synthetic import SyntheticSpec, simulate, to_measurements
 

@@ -6,9 +6,9 @@ import warnings
 import numpy as np
 import pytest
 
-from pavement_mcmc.config import load_case
+from pavement_mcmc.data import load_case
 from pavement_mcmc.physics import Extension, HBasis, Model, extension_names, get_extension
-from pavement_mcmc.problem import build_problem
+from pavement_mcmc.posterior import build_problem
 from pavement_mcmc.solver import Grid
 from pavement_mcmc.synthetic import SyntheticSpec, simulate, to_measurements
 

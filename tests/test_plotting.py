@@ -9,10 +9,11 @@ import pytest
 from matplotlib.figure import Figure
 
 from pavement_mcmc import plotting as pl
-from pavement_mcmc.config import load_case
-from pavement_mcmc.problem import build_problem
-from pavement_mcmc.sensitivity import identifiability, parameter_values, reduced_sensitivity
-from pavement_mcmc.urban import compare
+from pavement_mcmc.analysis.sensitivity import identifiability, reduced_sensitivity
+from pavement_mcmc.analysis.urban import compare
+from pavement_mcmc.data import load_case
+from pavement_mcmc.parameters import parameter_values
+from pavement_mcmc.posterior import build_problem
 
 REPO = Path(__file__).resolve().parents[1]
 NAMES = ["kappa", "C", "gamma", "h_1", "h_2", "h_3", "h_4", "h_5", "h_6", "h_7"]

@@ -6,10 +6,11 @@ import numpy as np
 import pytest
 from scipy.integrate import quad
 
-from pavement_mcmc.parameters import Parameter, ParameterSpace
-from pavement_mcmc.priors import (
+from pavement_mcmc.parameters import (
     GMRFSmoothness,
     Normal,
+    Parameter,
+    ParameterSpace,
     Rayleigh,
     TruncatedNormal,
     Uniform,

@@ -19,9 +19,9 @@ from __future__ import annotations
 import pytest
 from test_hidden_effects import CASE
 
-from pavement_mcmc.config import load_case
 from pavement_mcmc.criticism import diagnose, refit
-from pavement_mcmc.problem import build_problem
+from pavement_mcmc.data import load_case
+from pavement_mcmc.posterior import build_problem
 from pavement_mcmc.synthetic import SyntheticSpec, write_case
 
 TIGHT = (

@@ -10,6 +10,8 @@ import numpy as np
 import pytest
 
 from pavement_mcmc import report
+from pavement_mcmc.diagnostics.assessment import assess
+from pavement_mcmc.runs import load_view
 from pavement_mcmc.storage import HDF5Store
 
 REPO = Path(__file__).resolve().parents[1]
@@ -21,7 +23,7 @@ def run_dir(tiny_run):
 
 
 def test_view_and_assessment(run_dir):
-    view = report.load_view(run_dir)
+    view = load_view(run_dir)
     assert view.burn_in_source.endswith("(result.json)")
     a = view.assessment
     assert set(a.table) == {"kappa", "C", "h_1", "h_2", "h_3"}
@@ -31,7 +33,7 @@ def test_view_and_assessment(run_dir):
     pr = view.predictive(20)
     assert pr.pred.shape == (20, view.problem.meas.n_obs, 5)
     assert pr.h.shape == (20, view.problem.meas.n_obs - 1)
-    assert report.load_view(run_dir, burn_in=100).burn_in == 100
+    assert load_view(run_dir, burn_in=100).burn_in == 100
 
 
 def test_assess_trusts_a_stationary_chain():
@@ -46,10 +48,10 @@ def test_assess_trusts_a_stationary_chain():
         accepted = rng.random((n, m)) < 0.4
         param_names = ["a", "b"]
 
-    a = report.assess(Run, burn_in=0)
+    a = assess(Run, burn_in=0)
     assert a.trusted, a.reasons
     Run.chain = x + np.linspace(0, 3, n)[:, None, None]  # a trend: Geweke and R-hat must fail
-    assert not report.assess(Run, burn_in=0).trusted
+    assert not assess(Run, burn_in=0).trusted
 
 
 def test_report_html_on_a_run_still_being_written(run_dir, tmp_path):
@@ -74,7 +76,7 @@ def test_report_html_on_a_run_still_being_written(run_dir, tmp_path):
     report.register_section("Broken section", bad)
     writer = HDF5Store.open_append(live / "chain.h5")  # a live writer holds the file
     try:
-        view = report.load_view(live)
+        view = load_view(live)
         assert "MSER" in view.burn_in_source
         out = report.build_report(view, dpi=30, n_draws=20)
     finally:

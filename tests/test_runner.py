@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from pavement_mcmc.runner import fit, load_run, resume, to_toml
+from pavement_mcmc.runs import fit, load_run, resume, to_toml
 from pavement_mcmc.storage import StoreMismatch, read_run
 
 ROOT = Path(__file__).resolve().parents[1]

@@ -6,10 +6,9 @@ import numpy as np
 import pytest
 from scipy import integrate, stats
 
-from pavement_mcmc.parameters import Parameter, ParameterSpace
-from pavement_mcmc.priors import Flat, GMRFSmoothness, Rayleigh
+from pavement_mcmc.parameters import Flat, GMRFSmoothness, Parameter, ParameterSpace, Rayleigh
+from pavement_mcmc.runs import run_sampler
 from pavement_mcmc.samplers import SAMPLERS, get_sampler, sampler_names
-from pavement_mcmc.samplers.loop import run_sampler
 from pavement_mcmc.storage import MemoryStore
 
 
@@ -55,7 +54,7 @@ def _store(post, n_chains):
 
 
 def _prepared(kind, post, seed=1):
-    from pavement_mcmc.map import find_map
+    from pavement_mcmc.posterior import find_map
 
     s = get_sampler(kind, post, seed=seed, laplace=find_map(post))
     s.prepare()
@@ -165,7 +164,7 @@ def test_gamma_gibbs_draw_is_exact():
 def test_marginal_gmrf_table_matches_quadrature():
     """The tabulated log F(S) = log int g^{(N-1)/2} e^{-g S/2} pi(g) dg agrees with adaptive
     quadrature to 1e-6 over 18 decades of S, and its moments with E[g], Var[g] by quadrature."""
-    from pavement_mcmc.samplers.marginal import MarginalGMRF
+    from pavement_mcmc.posterior.marginal import MarginalGMRF
 
     g0 = 2.22
     tab = MarginalGMRF(112, Rayleigh(g0), 0.0, 1e4)
@@ -308,7 +307,7 @@ def test_marginal_map_is_the_em_fixed_point(laplace_em):
     gradient of the gamma-marginal log-posterior, -(h - y)/s^2 - E[gamma | S] D^T D h, vanishes;
     with the Laplace-corrected roughness the returned gamma is E[gamma | S_eff]. The Aitken jumps
     get there in far fewer EM steps than the plain iteration (which needs ~30 on Case C)."""
-    from pavement_mcmc.samplers.marginal import MarginalGMRF, find_marginal_map
+    from pavement_mcmc.posterior.marginal import MarginalGMRF, find_marginal_map
 
     post = ToyGMRF(N=30, seed=5)
     tab = MarginalGMRF(post.N, Rayleigh(post.g0), 0.0, 1e4)

@@ -19,9 +19,9 @@ import pytest
 from test_hidden_effects import CASE, scaled, true_rmse
 
 from pavement_mcmc.cli.diagnose import load_point
-from pavement_mcmc.config import load_case
 from pavement_mcmc.criticism import diagnose
 from pavement_mcmc.criticism.ranking import FINER_H
+from pavement_mcmc.data import load_case
 from pavement_mcmc.physics import extension_names
 from pavement_mcmc.synthetic import SyntheticSpec, write_case
 
@@ -103,7 +103,7 @@ def test_sensor_depth_after_sensor_bias_keeps_the_bias(tmp_path):
     (it used to re-interpolate the nodes and drop the biases)."""
     import numpy as np
 
-    from pavement_mcmc.problem import build_problem
+    from pavement_mcmc.posterior import build_problem
 
     cfg = load_case(make_case(tmp_path, (), seed=1))
     preds = []
@@ -135,9 +135,8 @@ def test_a_hook_that_overwrites_earlier_ones_is_placed_first(tmp_path):
     first, where it does, and says so."""
     import numpy as np
 
-    from pavement_mcmc.parameters import Parameter
+    from pavement_mcmc.parameters import Parameter, Uniform
     from pavement_mcmc.physics import Extension
-    from pavement_mcmc.priors import Uniform
 
     class Overwrite(Extension):
         name = "overwrite_offset"
@@ -149,7 +148,7 @@ def test_a_hook_that_overwrites_earlier_ones_is_placed_first(tmp_path):
             return {"dz_all": 0.0}
 
         def observe(self, pred, T_nodes, p, model):
-            from pavement_mcmc.physics.model import interpolation_weights
+            from pavement_mcmc.physics.observe import interpolation_weights
 
             z = model.meas.depths[None, :] + np.asarray(p["dz_all"])[:, None]
             i, w = interpolation_weights(model.grid.x, z)

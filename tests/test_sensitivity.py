@@ -8,17 +8,16 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from pavement_mcmc.config import load_case
-from pavement_mcmc.measurements import Measurements
-from pavement_mcmc.physics import HBasis, Model
-from pavement_mcmc.problem import build_problem
-from pavement_mcmc.sensitivity import (
+from pavement_mcmc.analysis.sensitivity import (
     Sensitivity,
     default_names,
     identifiability,
-    parameter_values,
     reduced_sensitivity,
 )
+from pavement_mcmc.data import Measurements, load_case
+from pavement_mcmc.parameters import parameter_values
+from pavement_mcmc.physics import HBasis, Model
+from pavement_mcmc.posterior import build_problem
 from pavement_mcmc.solver import Grid
 
 REPO = Path(__file__).resolve().parents[1]

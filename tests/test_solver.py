@@ -11,8 +11,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from pavement_mcmc.data import read_csv_case
-from pavement_mcmc.measurements import Measurements
+from pavement_mcmc.data import Measurements, read_csv_case
 from pavement_mcmc.solver import (
     SCHEMES,
     Coefficients,

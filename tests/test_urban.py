@@ -7,11 +7,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from pavement_mcmc.analysis.urban import STEFAN_BOLTZMANN, compare, read_wind_csv, standard_h
 from pavement_mcmc.cli.simulate import iso_times
-from pavement_mcmc.config import load_case
-from pavement_mcmc.problem import build_problem
-from pavement_mcmc.sensitivity import parameter_values
-from pavement_mcmc.urban import STEFAN_BOLTZMANN, compare, read_wind_csv, standard_h
+from pavement_mcmc.data import load_case
+from pavement_mcmc.parameters import parameter_values
+from pavement_mcmc.posterior import build_problem
 
 REPO = Path(__file__).resolve().parents[1]
 

@@ -10,10 +10,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from pavement_mcmc.config import load_case
+from pavement_mcmc.data import load_case
 from pavement_mcmc.parameters import Parameter
 from pavement_mcmc.physics import extension_names, get_extension
-from pavement_mcmc.problem import build_problem
+from pavement_mcmc.posterior import build_problem
 
 README = Path(__file__).resolve().parents[1] / "README.md"
 

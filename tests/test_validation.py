@@ -13,15 +13,12 @@ import pytest
 from scipy import stats
 
 from pavement_mcmc import diagnostics as dg
-from pavement_mcmc.config import load_case
-from pavement_mcmc.parameters import ParameterSpace
+from pavement_mcmc.data import load_case
+from pavement_mcmc.parameters import ParameterSpace, TruncatedNormal
 from pavement_mcmc.physics import HBasis, Model
-from pavement_mcmc.posterior import LogPosterior
-from pavement_mcmc.priors import TruncatedNormal
-from pavement_mcmc.problem import build_problem
-from pavement_mcmc.runner import truth_values
+from pavement_mcmc.posterior import LogPosterior, build_problem
+from pavement_mcmc.runs import run_sampler, truth_values
 from pavement_mcmc.samplers import get_sampler
-from pavement_mcmc.samplers.loop import run_sampler
 from pavement_mcmc.solver import Grid
 from pavement_mcmc.storage import MemoryStore
 
@@ -69,7 +66,7 @@ def test_sbc_case_a_twins(inputs):
     as exact, as the paper does: the model is then misspecified (errors in variables) and the
     posterior too narrow — xfail, it measures the paper's method, not the sampler;
     ``"noisy_integrated"`` keeps the noise and integrates it out of the likelihood
-    (``input_sigma``, :mod:`pavement_mcmc.input_noise`): kappa and h become uniform, C's ranks
+    (``input_sigma``, :mod:`pavement_mcmc.posterior.input_noise`): kappa and h become uniform, C's ranks
     still lean low — the fit prefers parameters that damp the noisy boundary's wiggles (a
     larger C), an errors-in-variables bias the Berkson-type marginalisation does not remove
     (MAP C / true C on 16 twins: 1.03 with the noisy 5 cm series, 1.00 with the clean one).
@@ -77,7 +74,7 @@ def test_sbc_case_a_twins(inputs):
     """
     if inputs == "noisy":
         pytest.xfail("noisy boundary/initial data used as exact: the paper's method is over-confident")
-    from pavement_mcmc.problem import attach_input_noise
+    from pavement_mcmc.posterior import attach_input_noise
     from pavement_mcmc.synthetic import SyntheticSpec, simulate, to_measurements
 
     warnings.simplefilter("ignore")

@@ -51,13 +51,7 @@ def build_parser() -> argparse.ArgumentParser:
         if module in seen:
             continue
         seen.add(module)
-        try:
-            mod = importlib.import_module(f".{module}", __name__)
-        except ModuleNotFoundError as err:
-            if err.name != f"{__name__}.{module}":
-                raise
-            continue  # command not built yet
-        mod.add_parser(sub)
+        importlib.import_module(f".{module}", __name__).add_parser(sub)
     return parser
 
 

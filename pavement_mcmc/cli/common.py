@@ -59,7 +59,7 @@ def add_set_option(p: argparse.ArgumentParser) -> None:
 
 def split_assignments(items: list[str]) -> tuple[dict, dict[str, float]]:
     """Split ``--set`` items into config overrides (dotted keys) and parameter values."""
-    from ..config import merge_overrides, parse_set
+    from ..data import merge_overrides, parse_set
 
     overrides: dict = {}
     params = []

@@ -49,29 +49,18 @@ def load_point(path: str, statistic: str = "mean"):
     base, *added = str(path).split("+")
     pth = Path(base)
     if pth.suffix == ".toml":
-        from ..config import load_case
         from ..criticism import refit
-        from ..problem import build_problem
+        from ..data import load_case
+        from ..posterior import build_problem
 
         cfg = load_case(pth)
         exts = list(cfg.model.get("extensions", [])) + added
         problem = build_problem(cfg, extensions=exts)
         label = cfg.name + "".join(f"+{a}" for a in added)
         return problem, refit(problem).values(), "MAP fit", label
-    from ..criticism import point_estimate
+    from ..runs import point_estimate
 
-    try:
-        problem, values = point_estimate(pth, statistic)
-    except ImportError:  # runner not available: read the run through the report's loader
-        import numpy as np
-
-        from ..report import load_view
-
-        view = load_view(pth)
-        problem = view.problem
-        est = np.median(view.flat, axis=0) if statistic == "median" else view.flat.mean(axis=0)
-        values = {k: float(v[0]) for k, v in problem.space.values().items()}
-        values.update({n: float(v) for n, v in zip(view.names, est, strict=True)})
+    problem, values = point_estimate(pth, statistic)
     return problem, values, f"posterior {statistic}", pth.name
 
 

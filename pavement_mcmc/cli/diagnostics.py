@@ -42,7 +42,8 @@ def format_table(assessment) -> list[str]:
 
 
 def run(args) -> int:
-    from ..report import chains_note, load_view
+    from ..diagnostics.assessment import chains_note
+    from ..runs import load_view
 
     view = load_view(args.run, burn_in=args.burn_in)
     a = view.assessment

@@ -24,8 +24,8 @@ def add_parser(sub) -> None:
 
 
 def run(args) -> int:
-    from ..export import export_netcdf, import_arviz
-    from ..report import load_view
+    from ..runs import load_view
+    from ..runs.export import export_netcdf, import_arviz
 
     try:
         import_arviz()

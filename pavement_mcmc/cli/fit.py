@@ -50,7 +50,7 @@ def _report(args, out) -> int:
                "min_ess": float(np.min(res.ess)) if res.ess.size else None,
                "max_rhat": float(np.max(res.rhat)) if res.rhat.size else None,
                "table": out.table}
-    from ..runner import format_table
+    from ..runs import format_table
 
     shown = out.table if len(out.table) <= 12 else out.table[:6] + out.table[-3:]
     text = "\n".join([
@@ -74,7 +74,7 @@ def _interrupted(run_dir) -> int:
 
 
 def run_fit(args: argparse.Namespace) -> int:
-    from ..runner import fit
+    from ..runs import fit
 
     overrides, values = split_assignments(args.assign)
     try:
@@ -88,7 +88,7 @@ def run_fit(args: argparse.Namespace) -> int:
 
 
 def run_resume(args: argparse.Namespace) -> int:
-    from ..runner import resume
+    from ..runs import resume
 
     try:
         out = resume(args.run, max_seconds=args.max_seconds,

@@ -23,7 +23,8 @@ def add_parser(sub) -> None:
 
 
 def run(args) -> int:
-    from ..report import build_report, load_view
+    from ..report import build_report
+    from ..runs import load_view
 
     view = load_view(args.run, burn_in=args.burn_in)
     out = build_report(view, args.out, dpi=args.dpi, n_draws=args.draws)

@@ -33,8 +33,8 @@ def add_parser(sub) -> None:
 
 
 def run(args) -> int:
+    from ..analysis.sensitivity import default_names, identifiability, reduced_sensitivity
     from ..plotting import plot_identifiability, plot_sensitivity
-    from ..sensitivity import default_names, identifiability, reduced_sensitivity
 
     problem, values = load_problem(args.case, args.assign)
     names = default_names(problem.space)

@@ -35,9 +35,9 @@ def add_parser(sub) -> None:
 
 def load_problem(case: str, items: list[str]):
     """Load a case with the ``--set`` items: ``(problem, values)``, every parameter's value."""
-    from ..config import load_case
-    from ..problem import build_problem
-    from ..sensitivity import parameter_values
+    from ..data import load_case
+    from ..parameters import parameter_values
+    from ..posterior import build_problem
 
     overrides, params = split_assignments(items)
     problem = build_problem(load_case(case, overrides or None))

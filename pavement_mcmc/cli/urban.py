@@ -30,9 +30,9 @@ def add_parser(sub) -> None:
 def run(args) -> int:
     from pathlib import Path
 
+    from ..analysis.urban import compare, read_wind_csv
     from ..plotting import plot_urban
-    from ..report import load_view
-    from ..urban import compare, read_wind_csv
+    from ..runs import load_view
 
     view = load_view(args.run, burn_in=args.burn_in)
     pb = view.problem

@@ -12,12 +12,11 @@ Public API
 - :func:`~.ledger.ledger` -> :class:`~.ledger.Ledger` (compare runs);
 - :func:`~.holdout.leave_one_sensor_out` -> :class:`~.holdout.HoldOut`;
 - :func:`~.fitting.refit` -> :class:`~.fitting.Fit` (quick MAP refit);
-- :func:`point_estimate` (run directory -> problem, posterior mean).
 """
 
 from __future__ import annotations
 
-from .diagnose import Diagnosis, diagnose, point_estimate
+from .diagnose import Diagnosis, diagnose
 from .fitting import Fit, refit
 from .holdout import HoldOut, leave_one_sensor_out
 from .ledger import Ledger, ledger
@@ -40,7 +39,6 @@ __all__ = [
     "ledger",
     "noise_like",
     "plain_signals",
-    "point_estimate",
     "rank_missing_effects",
     "refit",
 ]

@@ -1,4 +1,4 @@
-r"""Quick MAP refits for the criticism, on top of :func:`pavement_mcmc.map.find_map`.
+r"""Quick MAP refits for the criticism, on top of :func:`pavement_mcmc.posterior.map.find_map`.
 
 A refit returns, besides the MAP point, the two parts of the MAP objective
 :math:`\Phi = \chi^2 + P` (``chi2``: the sum of squared standardised data residuals, first
@@ -20,8 +20,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..map import find_map
-from ..priors import GMRFSmoothness, Normal, TruncatedNormal
+from ..parameters import GMRFSmoothness, Normal, TruncatedNormal
+from ..posterior import find_map
 
 
 @dataclass(frozen=True)
@@ -30,7 +30,7 @@ class Fit:
 
     Attributes
     ----------
-    problem : the :class:`~pavement_mcmc.problem.Problem` that was fitted.
+    problem : the :class:`~pavement_mcmc.posterior.Problem` that was fitted.
     names : free-parameter names, in the order of ``theta``.
     theta : (n_free,) MAP estimate.
     chi2 : sum of squared standardised data residuals.
@@ -95,7 +95,7 @@ def refit(problem, start: dict[str, float] | None = None, *, max_nfev: int = 100
 
     Parameters
     ----------
-    problem : a :class:`~pavement_mcmc.problem.Problem`.
+    problem : a :class:`~pavement_mcmc.posterior.Problem`.
     start : starting values; parameters not named start at their ``value``.
     max_nfev : least-squares iterations.
 

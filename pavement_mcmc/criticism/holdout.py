@@ -19,8 +19,9 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from ..parameters import ParameterSpace
-from ..physics.model import Model, interpolation_weights
-from ..posterior import LogPosterior
+from ..physics import Model
+from ..physics.observe import interpolate, interpolation_weights
+from ..posterior import LogPosterior, Problem
 from .fitting import refit
 
 _LOG_2PI = np.log(2 * np.pi)
@@ -56,8 +57,6 @@ class HoldOut:
 
 def subproblem(problem, keep: np.ndarray):
     """The problem restricted to the observed sensors ``keep`` (indices), same priors."""
-    from ..problem import Problem
-
     meas = problem.meas
     sub = replace(meas, depths=meas.depths[keep], T_obs=meas.T_obs[:, keep])
     m = problem.model
@@ -82,7 +81,7 @@ def leave_one_sensor_out(problem, start: dict[str, float] | None = None) -> Hold
         p = sp.space.expand(fit.theta[None, :])
         nodes = sp.model.solve(p)[0]
         i, w = interpolation_weights(sp.model.grid.x, meas.depths[k : k + 1])
-        pred = nodes[:, i[0]] * (1 - w[0]) + nodes[:, i[0] + 1] * w[0]
+        pred = interpolate(nodes, i, w)[:, 0]
         r = pred[1:] - meas.T_obs[1:, k]
         rmse[k] = float(np.sqrt(np.mean(r**2)))
         lp.append(-0.5 * (r / sig) ** 2 - np.log(sig) - 0.5 * _LOG_2PI)

@@ -66,7 +66,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..physics import extension_names, get_extension
-from ..problem import build_problem
+from ..posterior import build_problem
 from .fitting import Fit, refit
 from .holdout import leave_one_sensor_out
 from .residuals import ResidualReport, analyse_point, plain_signals, pooled_lag1
@@ -169,6 +169,7 @@ class Ranking:
     best: Entry | None
     lookalikes: list[str]
     skipped: dict[str, str]
+    threshold: float = THRESHOLD
 
     def to_dict(self) -> dict:
         return {
@@ -181,7 +182,7 @@ class Ranking:
                 "p_eff": self.base.p_eff,
                 "prior_penalty": self.base.prior_penalty,
             },
-            "threshold": THRESHOLD,
+            "threshold": self.threshold,
             "candidates": [e.to_dict() for e in self.entries],
             "skipped": self.skipped,
         }
@@ -321,7 +322,7 @@ def rank_missing_effects(
 
     Parameters
     ----------
-    problem : the run's :class:`~pavement_mcmc.problem.Problem`.
+    problem : the run's :class:`~pavement_mcmc.posterior.Problem`.
     values : the run's point estimate by parameter name (posterior mean or MAP); default the
         parameters' values. Used for the residual report and as the start of every refit.
     candidates : extension names (or ``"module:Class"``) to try; default every registered
@@ -395,4 +396,4 @@ def rank_missing_effects(
                 entries = close + [e for e in entries if e not in close]
     best = entries[0] if entries and entries[0].detected else None
     verdict = make_verdict(best, entries, lookalikes, rep, threshold)
-    return Ranking(entries, base, rep, verdict, best, lookalikes, skipped)
+    return Ranking(entries, base, rep, verdict, best, lookalikes, skipped, threshold)

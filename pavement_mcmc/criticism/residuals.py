@@ -223,7 +223,7 @@ def analyse(meas, predicted: np.ndarray, T_surface: np.ndarray | None = None) ->
 
     Parameters
     ----------
-    meas : the :class:`~pavement_mcmc.measurements.Measurements`.
+    meas : the :class:`~pavement_mcmc.data.Measurements`.
     predicted : (n_obs, n_sensors) predicted temperatures at the sensors, degC.
     T_surface : (n_obs,) modelled surface temperature (for T_air - T_s); default the
         shallowest sensor's record.

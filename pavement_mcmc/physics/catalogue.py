@@ -15,8 +15,9 @@ from __future__ import annotations
 import numpy as np
 
 from ..parameters import Parameter
-from ..priors import Normal, TruncatedNormal, Uniform
+from ..parameters.priors import Normal, TruncatedNormal, Uniform
 from .base import Extension
+from .observe import interpolation_weights
 from .registry import register_extension
 
 
@@ -89,8 +90,6 @@ class SensorDepth(Extension):
         return {p.name: 0.0 for p in self.parameters(meas)}
 
     def observe(self, pred, T_nodes, p, model):
-        from .model import interpolation_weights
-
         labels = model.meas.sensor_labels
         dz = np.stack([p[f"dz_{lab}"] for lab in labels], axis=-1)  # (n_sets, n_sensors)
         i, w = interpolation_weights(model.grid.x, model.meas.depths[None, :] + dz)

@@ -12,7 +12,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..parameters import Parameter
-from ..priors import TruncatedNormal
+from ..parameters.priors import TruncatedNormal
 
 
 @dataclass(frozen=True)

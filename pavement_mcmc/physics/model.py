@@ -4,28 +4,17 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..measurements import Measurements
+from ..data.measurements import Measurements
 from ..parameters import Parameter, ParameterSpace
-from ..priors import Flat, GMRFSmoothness, Rayleigh, TruncatedNormal
-from ..solver import Coefficients, Forcing, Grid, solve
+from ..parameters.priors import Flat, GMRFSmoothness, Rayleigh, TruncatedNormal
+from ..solver import Coefficients, Forcing, Grid, solve, solve_vjp
 from .base import Extension
 from .hbasis import HBasis
+from .observe import interpolate, interpolate_transpose, interpolation_weights
 from .registry import get_extension
 
 #: the paper's "literature values" (h W m-2 K-1, C J m-3 K-1, kappa W m-1 K-1)
 LITERATURE = {"kappa": 2.27, "C": 2.10e6, "h": 10.0}
-
-
-def interpolation_weights(x: np.ndarray, z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Left node index and weight of the right node for linear interpolation at depths ``z``.
-
-    Works for any shape of ``z``; depths are clipped to the grid.
-    """
-    dx = x[1] - x[0]
-    zc = np.clip(z, x[0], x[-1])
-    i = np.minimum(((zc - x[0]) / dx).astype(int), x.size - 2)
-    w = (zc - x[i]) / dx
-    return i, w
 
 
 class Model:
@@ -135,12 +124,10 @@ class Model:
         ``cotangent_fn(T_nodes) -> G`` gives d loss / d T_nodes (same shape); returns
         ``(T_nodes, names, grad)`` with ``grad`` (n_sets, len(names)) the gradient with respect
         to kappa, C and every h piece (``names``), by the discrete adjoint of the solver
-        (:mod:`pavement_mcmc.adjoint`): about the cost of three solves.
+        (:mod:`pavement_mcmc.solver.adjoint`): about the cost of three solves.
         """
         if not self.has_gradient:
             raise NotImplementedError("the adjoint covers the base model with the 'cn' scheme only")
-        from ..adjoint import solve_vjp
-
         out, g = solve_vjp(self.grid, self.forcing, self.coefficients(p), cotangent_fn)
         cols = [g["kappa"].sum(axis=1)[:, None], g["C"][:, :-1].sum(axis=1)[:, None]]
         names = ["kappa", "C"]
@@ -151,17 +138,11 @@ class Model:
 
     def observe_nominal(self, T_nodes: np.ndarray) -> np.ndarray:
         """Temperatures at the sensors' nominal depths (n_sets, n_obs, n_sensors)."""
-        i, w = self._obs_i, self._obs_w
-        return T_nodes[..., i] * (1.0 - w) + T_nodes[..., i + 1] * w
+        return interpolate(T_nodes, self._obs_i, self._obs_w)
 
     def observe_nominal_transpose(self, G: np.ndarray) -> np.ndarray:
         """Adjoint of :meth:`observe_nominal`: sensor cotangents (..., n_sensors) -> nodes."""
-        i, w = self._obs_i, self._obs_w
-        out = np.zeros(G.shape[:-1] + (self.grid.n_nodes,))
-        for k in range(G.shape[-1]):
-            out[..., i[k]] += G[..., k] * (1.0 - w[k])
-            out[..., i[k] + 1] += G[..., k] * w[k]
-        return out
+        return interpolate_transpose(G, self._obs_i, self._obs_w, self.grid.n_nodes)
 
     def observe(self, T_nodes: np.ndarray, p: dict[str, np.ndarray]) -> np.ndarray:
         """Sensor predictions (n_sets, n_obs, n_sensors) from nodal temperatures: the nominal
@@ -174,10 +155,6 @@ class Model:
     def predict(self, p: dict[str, np.ndarray]) -> np.ndarray:
         """Predicted temperatures at the observed sensors, (n_sets, n_obs, n_sensors), degC."""
         return self.observe(self.solve(p), p)
-
-    def surface_temperature(self, p: dict[str, np.ndarray]) -> np.ndarray:
-        """Modelled surface temperature (n_sets, n_obs), degC."""
-        return self.solve(p)[..., 0]
 
     def describe(self) -> str:
         ext = ", ".join(e.name for e in self.extensions) or "none"

@@ -20,8 +20,8 @@ def register_extension(cls: type[Extension]) -> type[Extension]:
 
 
 def extension_names() -> list[str]:
-    from . import catalogue  # noqa: F401  (registers the shipped effects)
-
+    """Names of the registered extensions (the shipped catalogue is registered when
+    :mod:`pavement_mcmc.physics` is imported)."""
     return sorted(_REGISTRY)
 
 

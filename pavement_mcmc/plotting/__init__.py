@@ -1,7 +1,7 @@
 """Every figure of the package. The only package that imports matplotlib.
 
 Functions take arrays (or small result objects such as
-:class:`~pavement_mcmc.sensitivity.Sensitivity`) plus an optional ``fig`` and RETURN the
+:class:`~pavement_mcmc.analysis.sensitivity.Sensitivity`) plus an optional ``fig`` and RETURN the
 :class:`~matplotlib.figure.Figure`; they use :class:`~matplotlib.figure.Figure` objects directly
 (no pyplot global state), so they work with any backend and in threads. Save with
 ``fig.savefig(path)``. Figures of a stored run are assembled by :mod:`pavement_mcmc.report`.

@@ -83,16 +83,17 @@ def plot_residual_correlations(report, fig: Figure | None = None) -> Figure:
 
 
 def plot_ranking(ranking, fig: Figure | None = None) -> Figure:
-    """Penalised evidence of each candidate (bars) with the detection threshold."""
-    from ..criticism.ranking import THRESHOLD
-
+    """Penalised evidence of each candidate (bars) with the detection threshold: red for the
+    candidates claimed as detected, grey for the others (prior-driven ones included)."""
+    threshold = ranking.threshold
     fig = new_figure(fig, (7.0, 0.45 * len(ranking.entries) + 1.2))
     ax = fig.subplots()
     names = [e.name for e in ranking.entries][::-1]
     sc = np.array([e.score for e in ranking.entries][::-1])
     shown = np.sign(sc) * np.log10(1 + np.abs(sc))
-    ax.barh(names, shown, color=["C3" if s > THRESHOLD else "0.6" for s in sc])
-    ax.axvline(np.log10(1 + THRESHOLD), color="k", ls="--", lw=0.8, label=f"threshold {THRESHOLD:g}")
+    detected = [e.detected for e in ranking.entries][::-1]
+    ax.barh(names, shown, color=["C3" if d else "0.6" for d in detected])
+    ax.axvline(np.log10(1 + threshold), color="k", ls="--", lw=0.8, label=f"threshold {threshold:g}")
     ax.set_xlabel("sign(S) log10(1 + |S|), S = penalised misfit drop")
     ax.legend(fontsize=7, loc="lower right")
     ax.set_title("which effect is missing?")

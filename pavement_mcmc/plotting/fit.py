@@ -25,7 +25,7 @@ def plot_fit(
 
     Parameters
     ----------
-    meas : :class:`~pavement_mcmc.measurements.Measurements` (times, sensors, sigma).
+    meas : :class:`~pavement_mcmc.data.Measurements` (times, sensors, sigma).
     predicted : (n_obs, n_sensors) predicted temperatures, degC (e.g. the posterior predictive
         median, or one parameter set).
     band : optional ``(lower, upper)``, each (n_obs, n_sensors): a posterior predictive band of

@@ -121,7 +121,7 @@ def plot_sensitivity(
 
     Parameters
     ----------
-    sens : :class:`~pavement_mcmc.sensitivity.Sensitivity`.
+    sens : :class:`~pavement_mcmc.analysis.sensitivity.Sensitivity`.
     subset : parameter names to draw (default: non-h parameters and four h pieces).
     sigma : optional noise sd, degC, drawn as a ``± sigma`` band for scale.
     """
@@ -161,7 +161,7 @@ def plot_identifiability(ident, max_params: int = 30, fig: Figure | None = None)
 
     Parameters
     ----------
-    ident : :class:`~pavement_mcmc.sensitivity.Identifiability`.
+    ident : :class:`~pavement_mcmc.analysis.sensitivity.Identifiability`.
     max_params : at most this many parameters are shown (non-h first, then evenly spaced h).
     """
     names = list(ident.names)
@@ -203,7 +203,7 @@ def plot_urban(comparison, fig: Figure | None = None) -> Figure:
 
     Parameters
     ----------
-    comparison : :class:`~pavement_mcmc.urban.UrbanComparison`.
+    comparison : :class:`~pavement_mcmc.analysis.urban.UrbanComparison`.
     """
     c = comparison
     t = hours(c.t)

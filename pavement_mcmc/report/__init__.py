@@ -1,7 +1,7 @@
 r"""A stored run's view, its convergence assessment, and its one-file HTML report.
 
 :func:`load_view` opens a run directory (``runs/NAME/chain.h5``; works while the run is still
-being written) and rebuilds its :class:`~pavement_mcmc.problem.Problem`; :class:`RunView` adds
+being written) and rebuilds its :class:`~pavement_mcmc.posterior.Problem`; :class:`RunView` adds
 the burn-in, the kept chain, posterior draws and a cached posterior predictive.
 :func:`assess` turns the diagnostics into per-parameter pass/fail and a run-level verdict.
 :func:`build_report` writes ONE self-contained HTML file (figures as base64 PNG).
@@ -36,27 +36,14 @@ import json
 from pathlib import Path
 
 from .. import __version__
-from .assessment import (  # noqa: F401  (constants importable from here, as before the split)
-    ESS_MIN,
-    GEWEKE_Z,
-    RHAT_MAX,
-    TAU_FACTOR,
-    Assessment,
-    assess,
-    chains_note,
-)
+from ..diagnostics.assessment import chains_note
+from ..runs.view import RunView
 from .builtin import _diag_table, _figures, _stats_table, _urban_section
 from .markup import _CSS, _img, figure_to_base64, section_error  # noqa: F401  (figure_to_base64)
 from .sections import SectionBuilder, register_section, registered_sections, unregister_section
-from .view import Predictive, RunView, load_view, predictive  # noqa: F401  (predictive)
 
 __all__ = [
-    "Assessment",
-    "Predictive",
-    "RunView",
-    "assess",
     "build_report",
-    "load_view",
     "register_section",
     "registered_sections",
     "unregister_section",

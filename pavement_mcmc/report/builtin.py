@@ -7,8 +7,8 @@ from collections.abc import Callable
 
 import numpy as np
 
+from ..runs.view import RunView
 from .markup import _fmt, _img
-from .view import RunView
 
 
 def _lags(kept: np.ndarray, tau: float, thin: int) -> int:
@@ -59,7 +59,8 @@ def _diag_table(view: RunView) -> str:
 def _figures(view: RunView, n_draws: int) -> list[tuple[str, Callable, str]]:
     """(title, builder -> Figure, caption) of the built-in figures."""
     from .. import plotting as pl
-    from ..sensitivity import default_names, parameter_values, reduced_sensitivity
+    from ..analysis.sensitivity import default_names, reduced_sensitivity
+    from ..parameters import parameter_values
 
     pb, meas, names = view.problem, view.problem.meas, view.names
     subset = pl.default_selection(names)
@@ -121,8 +122,8 @@ def _figures(view: RunView, n_draws: int) -> list[tuple[str, Callable, str]]:
 
 
 def _urban_section(view: RunView, dpi: int, n_draws: int) -> str:
+    from ..analysis.urban import compare
     from ..plotting import plot_urban
-    from ..urban import compare
 
     if view.problem.meas.wind is None:
         return "<p>No wind column in the data: the urban comparison needs one.</p>"

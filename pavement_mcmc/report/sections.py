@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 
-from .view import RunView
+from ..runs.view import RunView
 
 SectionBuilder = Callable[[object, RunView], "tuple[str, list] | None"]
 _SECTIONS: list[tuple[float, int, str, SectionBuilder]] = []
@@ -37,7 +37,7 @@ def registered_sections() -> list[tuple[str, SectionBuilder]]:
 
 
 def _register_builtin_sections() -> None:
-    from ..criticism.report_section import TITLE, criticism_section
+    from .criticism import TITLE, criticism_section
 
     register_section(TITLE, criticism_section, order=50)
 

@@ -4,7 +4,7 @@ Metropolis–Hastings), ``"fast"`` (MAP + Laplace-preconditioned moves + exact g
 
 Every sampler steps many chains with one vectorised posterior call per step, returns
 :class:`~pavement_mcmc.samplers.base.Block` arrays and resumes exactly from a stored
-:class:`~pavement_mcmc.storage.RunState`; :func:`~pavement_mcmc.samplers.loop.run_sampler`
+:class:`~pavement_mcmc.storage.RunState`; :func:`~pavement_mcmc.runs.loop.run_sampler`
 drives any of them through one store.
 """
 

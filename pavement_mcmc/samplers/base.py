@@ -13,7 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..storage import RunState
+from .state import RunState
 
 
 @dataclass

@@ -5,7 +5,7 @@ the case has a free smoothness precision gamma (Case C). ``x`` = every free para
 (kappa, C, h, ...) in ORIGINAL coordinates (divided by fixed per-parameter scales).
 
 Reference Gaussian: the Gauss–Newton approximation at the gamma-marginal MAP ``x_hat``
-(:func:`~pavement_mcmc.samplers.marginal.find_marginal_map`, precision ``K`` including
+(:func:`~pavement_mcmc.posterior.marginal.find_marginal_map`, precision ``K`` including
 ``gamma_hat D^T D``), as a function of gamma:
 
 .. math:: q(x \mid \gamma) = N\bigl(\mu(\gamma), Q(\gamma)^{-1}\bigr),\quad

@@ -22,7 +22,7 @@ class EmceeSampler(Sampler):
     Options
     -------
     moves : emcee moves (default: ``emcee.moves.StretchMove()``).
-    laplace : a :class:`~pavement_mcmc.map.Laplace` for the start points.
+    laplace : a :class:`~pavement_mcmc.posterior.map.Laplace` for the start points.
     """
 
     name = "emcee"

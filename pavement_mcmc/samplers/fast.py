@@ -1,6 +1,6 @@
 r"""The fast sampler: MAP + Laplace, a Laplace-preconditioned Crank–Nicolson move, exact Gibbs for gamma.
 
-Preparation (:func:`pavement_mcmc.map.find_map`): the MAP by least squares (gamma by EM) and the
+Preparation (:func:`pavement_mcmc.posterior.map.find_map`): the MAP by least squares (gamma by EM) and the
 Gauss–Newton precision ``K = J^T J`` of the working coordinates ``z`` (all free ones but gamma;
 ``log theta`` for parameters bounded below by 0, so the hard bound h >= 0 is never hit, else
 ``theta / scale``) at their mode, with ``B = dK/dgamma`` the smoothness part. Given gamma,
@@ -42,11 +42,11 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..map import find_map
+from ..posterior.map import find_map
+from ..posterior.marginal import gmrf_of
 from .base import Block, Sampler, finite_draws
 from .block import BlockGMRFMixin
 from .gamma import GammaGibbsMixin
-from .marginal import gmrf_of
 from .marginal_rw import MarginalRWMixin
 
 
@@ -57,7 +57,7 @@ class FastSampler(BlockGMRFMixin, MarginalRWMixin, GammaGibbsMixin, Sampler):
     -------
     target_acceptance : float, default 0.45.
     proposal_scale : initial ``beta`` (default ``2.38/sqrt(d)``, at most 1).
-    laplace : a precomputed :class:`~pavement_mcmc.map.Laplace` (else computed in ``prepare``).
+    laplace : a precomputed :class:`~pavement_mcmc.posterior.map.Laplace` (else computed in ``prepare``).
     move : ``"rw"`` (default; gamma integrated out, random walk + exact gamma draw) or
         ``"block"`` (GMRF cases only: joint gamma/x block move mixed with pCN, :mod:`.block`).
     """

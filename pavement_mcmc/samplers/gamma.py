@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..priors import Flat, Rayleigh
+from ..parameters.priors import Flat, Rayleigh
 
 
 class GammaGibbsMixin:

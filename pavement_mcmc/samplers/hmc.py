@@ -37,10 +37,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..map import find_map
+from ..posterior.map import find_map
+from ..posterior.marginal import gmrf_of
 from .base import Block, Sampler, start_points
 from .gamma import GammaGibbsMixin
-from .marginal import gmrf_of
 from .marginal_rw import MarginalRWMixin
 
 #: dual-averaging constants (Hoffman & Gelman 2014, section 3.2)
@@ -63,7 +63,7 @@ class HMCSampler(MarginalRWMixin, GammaGibbsMixin, Sampler):
     max_leapfrog : int, default 64.
     step_size : initial ``eps`` (default ``0.5 d^-1/4``).
     adapt_metric : bool, default True.
-    laplace : a precomputed :class:`~pavement_mcmc.map.Laplace` (cases without gamma).
+    laplace : a precomputed :class:`~pavement_mcmc.posterior.map.Laplace` (cases without gamma).
     marginal_map : a precomputed marginal MAP (cases with gamma).
     """
 

@@ -19,9 +19,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..priors import Flat
+from ..parameters.priors import Flat
+from ..posterior.marginal import MarginalGMRF, find_marginal_map, gmrf_of
 from .base import Block, finite_draws
-from .marginal import MarginalGMRF, find_marginal_map, gmrf_of
 
 
 class MarginalRWMixin:

@@ -27,7 +27,7 @@ class MHSampler(Sampler):
     -------
     target_acceptance : float, default 0.25.
     proposal_scale : float, initial global factor ``s`` (default 1).
-    laplace : a :class:`~pavement_mcmc.map.Laplace` used for the step sizes and start points.
+    laplace : a :class:`~pavement_mcmc.posterior.map.Laplace` used for the step sizes and start points.
     """
 
     name = "mh"

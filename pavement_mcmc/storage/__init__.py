@@ -15,10 +15,11 @@ and :func:`read_run`, which reads a finished or a live run).
 
 from __future__ import annotations
 
+from ..samplers.state import RunState, rng_from_state
 from .base import FORMAT_VERSION, Store, StoreBusy, StoreMismatch  # noqa: F401  (FORMAT_VERSION)
 from .hdf5 import HDF5Store, read_run
 from .memory import MemoryStore
-from .records import RunData, RunState, config_diff, rng_from_state
+from .records import RunData, config_diff
 
 __all__ = [
     "HDF5Store",

@@ -18,7 +18,8 @@ from abc import ABC, abstractmethod
 import numpy as np
 
 from .. import __version__
-from .records import RunData, RunState, _dumps, _encode, config_diff
+from ..samplers.state import RunState
+from .records import RunData, _dumps, _encode, config_diff
 
 FORMAT_VERSION = 1
 

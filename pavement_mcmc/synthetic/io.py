@@ -11,7 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..measurements import Measurements
+from ..data.measurements import Measurements
 from .effects import EFFECTS, REFERENCE_KEYS
 from .simulate import SyntheticSpec, Truth, simulate
 
@@ -74,7 +74,7 @@ def to_measurements(
     bottom_cm: float | None = None,
     source: str = "synthetic",
 ) -> Measurements:
-    """Build :class:`~pavement_mcmc.measurements.Measurements` straight from simulated columns.
+    """Build :class:`~pavement_mcmc.data.Measurements` straight from simulated columns.
 
     Parameters
     ----------

@@ -1,0 +1,39 @@
+"""Step 1, the data: a case's CSV and TOML, checked, as :class:`Measurements` and a :class:`CaseConfig`.
+
+- :mod:`.measurements`: :class:`Measurements`, the in-memory form every later step consumes;
+- :mod:`.reader`: :func:`read_csv_case`, the CSV column contract and its checks of columns and
+  sensors; :mod:`.checks`: :class:`DataError` and the row-level checks (times, window, cells,
+  ranges);
+- :mod:`.case`: :func:`load_case` (TOML -> :class:`CaseConfig`), overrides and the run record;
+  :mod:`.schema`: the TOML's keys, :class:`ConfigError` and their validation.
+"""
+
+from .case import CaseConfig, dump_config, load_case, merge_overrides, parse_set
+from .checks import DataError
+from .measurements import Measurements
+from .reader import read_csv_case
+from .schema import (
+    DATA_KEYS,
+    GRID_DEFAULTS,
+    PARAMETER_KEYS,
+    SAMPLER_DEFAULTS,
+    SECTIONS,
+    ConfigError,
+)
+
+__all__ = [
+    "DATA_KEYS",
+    "GRID_DEFAULTS",
+    "PARAMETER_KEYS",
+    "SAMPLER_DEFAULTS",
+    "SECTIONS",
+    "CaseConfig",
+    "ConfigError",
+    "DataError",
+    "Measurements",
+    "dump_config",
+    "load_case",
+    "merge_overrides",
+    "parse_set",
+    "read_csv_case",
+]

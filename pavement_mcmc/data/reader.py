@@ -1,0 +1,325 @@
+"""Read and validate a case CSV into :class:`~pavement_mcmc.data.Measurements`.
+
+The column contract (see ``data/reference_case/README.md``):
+
+=============  ============  ==============================================
+column         unit          meaning
+=============  ============  ==============================================
+``time``       ISO 8601 UTC  sample time (any, possibly irregular, step)
+``T_air``      degC          air temperature
+``q_net``      W m-2         net radiation, positive into the ground
+``wind``       m s-1         wind speed (optional)
+``rain``       mm per step   precipitation (optional)
+``T_<d>cm``    degC          ground temperature at depth ``d`` cm (``T_2.5cm``)
+=============  ============  ==============================================
+
+Every problem with the input raises :class:`DataError` naming the file, the column and the row
+("data row N" is the 1-based row after the header, "line L" the line in the file). Nothing is
+returned unless every check passes. Soft issues (very large time gaps, ignored columns) are
+reported through :mod:`warnings`. The row-level checks (times, window, cells, ranges) live
+in :mod:`pavement_mcmc.data.checks`; every name there is re-exported here.
+"""
+
+from __future__ import annotations
+
+import csv
+import difflib
+import math
+import re
+import warnings
+from collections.abc import Mapping, Sequence
+from datetime import UTC, datetime
+from pathlib import Path
+
+import numpy as np
+
+from .checks import (
+    _TOL,
+    Q_MAX,
+    DataError,
+    _check_range,
+    _check_temperature,
+    _numeric_column,
+    _parse_times,
+    _Table,
+    _warn_time_gaps,
+    _window,
+)
+from .measurements import Measurements
+
+__all__ = ["DataError", "read_csv_case"]
+
+_ROLES = ("time", "T_air", "q_net", "wind", "rain")
+_REQUIRED = ("time", "T_air", "q_net")
+_DEPTH_RE = re.compile(r"^T_(\d+(?:\.\d*)?|\.\d+)cm$")
+
+
+def read_csv_case(
+    csv_path: str | Path,
+    *,
+    sigma: float,
+    columns: Mapping[str, str] | None = None,
+    observed: Sequence[float] | None = None,
+    bottom: float | None = None,
+    window_hours: Sequence[float | None] | None = None,
+    max_gap_fill: int = 0,
+) -> Measurements:
+    """Read a case CSV, validate it and return its :class:`Measurements`.
+
+    Parameters
+    ----------
+    csv_path : str or Path
+        The CSV file (comma separated, one header line, UTF-8).
+    sigma : float
+        Measurement noise standard deviation, degC; must be > 0.
+    columns : mapping of str to str, optional
+        Renames from the file's column names to contract roles, e.g.
+        ``{"Tair_C": "T_air", "TC3": "T_3cm", "stamp": "time"}``.
+    observed : sequence of float, optional
+        Depths (cm) of the observed sensors. Default: every ``T_<d>cm`` shallower than `bottom`.
+    bottom : float, optional
+        Depth (cm) of the sensor used as the Dirichlet boundary. Default: the deepest sensor.
+    window_hours : (start, end), optional
+        Time window in hours after the file's first row, both ends inclusive; ``None`` for an
+        open end. ``t = 0`` is the first row inside the window. Default: every row.
+    max_gap_fill : int, default 0
+        Longest run of consecutive missing cells (per column, inside the window) that is filled
+        by linear interpolation in time. Filled gaps are listed in ``Measurements.fill_report``
+        as ``(column, first_data_row, last_data_row)`` with 1-based data-row numbers of the file.
+
+    Returns
+    -------
+    Measurements
+        Arrays in SI units (seconds, metres) and degC, read-only.
+
+    Raises
+    ------
+    DataError
+        For any invalid input; the message names the file, column and row where they apply.
+
+    Notes
+    -----
+    Times are parsed for every row (the window is defined from the first row); numeric cells
+    are parsed and checked only for the used columns and the rows inside the window. Times with
+    a UTC offset are converted to UTC; naive times are taken as UTC.
+    """
+    path = str(csv_path)
+    sigma = _check_sigma(sigma, path)
+    if isinstance(max_gap_fill, bool) or not isinstance(max_gap_fill, int) or max_gap_fill < 0:
+        raise DataError(f"{path}: max_gap_fill must be an integer >= 0, got {max_gap_fill!r}")
+
+    table = _read_table(path)
+    roles, sensors = _resolve_columns(table, columns)
+    depth_obs, depth_bot = _select_sensors(table, sensors, observed, bottom)
+
+    stamps = _parse_times(table, roles["time"])
+    hours = (stamps - stamps[0]) / 3600.0
+    idx = _window(table, hours, window_hours, table.header[roles["time"]])
+    t = stamps[idx] - stamps[idx[0]]
+    _warn_time_gaps(table, t, idx)
+
+    fills: list[tuple[str, int, int]] = []
+
+    def column(col: int) -> np.ndarray:
+        return _numeric_column(table, col, idx, t, max_gap_fill, fills)
+
+    T_air = column(roles["T_air"])
+    q_net = column(roles["q_net"])
+    wind = column(roles["wind"]) if "wind" in roles else None
+    rain = column(roles["rain"]) if "rain" in roles else None
+    T_obs = np.column_stack([column(sensors[d]) for d in depth_obs])
+    T_bottom = column(sensors[depth_bot])
+
+    for col, arr in [(roles["T_air"], T_air), (sensors[depth_bot], T_bottom)] + [
+        (sensors[d], T_obs[:, k]) for k, d in enumerate(depth_obs)
+    ]:
+        _check_temperature(table, col, arr, idx)
+    _check_range(table, roles["q_net"], q_net, idx, -Q_MAX, Q_MAX, "W m-2")
+    for role, arr in (("wind", wind), ("rain", rain)):
+        if arr is not None:
+            _check_range(table, roles[role], arr, idx, 0.0, math.inf, f"negative {role}")
+
+    time0 = datetime.fromtimestamp(stamps[idx[0]], tz=UTC).strftime("%Y-%m-%dT%H:%M:%SZ")
+    arrays = dict(
+        t=t,
+        T_air=T_air,
+        q_net=q_net,
+        wind=wind,
+        rain=rain,
+        depths=np.asarray(depth_obs, float) / 100.0,
+        T_obs=T_obs,
+        T_bottom=T_bottom,
+    )
+    for arr in arrays.values():
+        if arr is not None:
+            arr.flags.writeable = False
+    return Measurements(
+        time0=time0,
+        bottom_depth=depth_bot / 100.0,
+        sigma=sigma,
+        source=path,
+        fill_report=tuple(fills),
+        **arrays,
+    )
+
+
+def _check_sigma(sigma: object, path: str) -> float:
+    if isinstance(sigma, bool) or not isinstance(sigma, int | float | np.floating | np.integer):
+        raise DataError(f"{path}: sigma must be a number (degC), got {sigma!r}")
+    if not math.isfinite(sigma) or sigma <= 0:
+        raise DataError(f"{path}: sigma must be finite and > 0 (degC), got {sigma!r}")
+    return float(sigma)
+
+
+def _read_table(path: str) -> _Table:
+    try:
+        with open(path, newline="", encoding="utf-8-sig") as fh:
+            reader = csv.reader(fh)
+            header: list[str] | None = None
+            rows: list[list[str]] = []
+            lines: list[int] = []
+            for rec in reader:
+                if not rec or (len(rec) == 1 and not rec[0].strip()):
+                    continue  # blank line
+                if header is None:
+                    header = [name.strip() for name in rec]
+                    header_line = reader.line_num
+                    continue
+                rows.append([cell.strip() for cell in rec])
+                lines.append(reader.line_num)
+    except FileNotFoundError:
+        raise DataError(f"{path}: file not found") from None
+    except (OSError, UnicodeDecodeError, csv.Error) as exc:
+        raise DataError(f"{path}: cannot read as a UTF-8 CSV file ({exc})") from None
+    if header is None:
+        raise DataError(f"{path}: the file is empty (no header line, no data rows)")
+    table = _Table(path, header, rows, lines)
+    seen: dict[str, int] = {}
+    for k, name in enumerate(header):
+        if not name:
+            raise DataError(f"{path}, line {header_line}: column {k + 1} of the header is unnamed")
+        if name in seen:
+            raise DataError(
+                f"{path}, column {name!r}: duplicate column name in the header (line "
+                f"{header_line}, columns {seen[name] + 1} and {k + 1})"
+            )
+        seen[name] = k
+    if not rows:
+        raise DataError(f"{path}: the file has a header but no data rows")
+    for i, row in enumerate(rows):
+        if len(row) != len(header):
+            raise table.error(f"has {len(row)} fields, the header has {len(header)}", row=i)
+    return table
+
+
+def _role_of(name: str) -> str | float | None:
+    """Contract role of a column name: a role string, a depth in cm, or None."""
+    if name in _ROLES:
+        return name
+    m = _DEPTH_RE.match(name)
+    return float(m.group(1)) if m else None
+
+
+def _resolve_columns(
+    table: _Table, columns: Mapping[str, str] | None
+) -> tuple[dict[str, int], dict[float, int]]:
+    """Map roles to column indices: ({role: index}, {depth_cm: index})."""
+    path, header = table.path, table.header
+    index = {name: k for k, name in enumerate(header)}
+    mapping = dict(columns or {})
+    for src, role in mapping.items():
+        if src not in index:
+            hint = ""
+            if role in index and isinstance(src, str) and _role_of(src) is not None:
+                hint = f"; the mapping goes file column -> role: use {{{role!r}: {src!r}}}"
+            else:
+                close = difflib.get_close_matches(str(src), header, n=1, cutoff=0.5)
+                hint = f" (did you mean {close[0]!r}?)" if close else ""
+            raise DataError(
+                f"{path}, column {src!r} named in the column mapping is not in the file{hint}. "
+                f"Columns in the file: {', '.join(header)}"
+            )
+        if not isinstance(role, str) or _role_of(role) is None:
+            raise DataError(
+                f"{path}, column {src!r} is mapped to {role!r}, which is not a role; valid roles "
+                f"are {', '.join(_ROLES)} and T_<depth>cm (e.g. T_2.5cm)"
+            )
+    roles: dict[str, int] = {}
+    sensors: dict[float, int] = {}
+    ignored: list[str] = []
+    for k, name in enumerate(header):
+        target = mapping.get(name, name)
+        role = _role_of(target)
+        if role is None:
+            ignored.append(name)
+            continue
+        key = f"T_{role:g}cm" if isinstance(role, float) else role
+        store: dict = sensors if isinstance(role, float) else roles
+        if role in store:
+            other = header[store[role]]
+            raise DataError(f"{path}, column {name!r}: columns {other!r} and {name!r} both provide {key!r}")
+        store[role] = k
+    for role in _REQUIRED:
+        if role not in roles:
+            close = difflib.get_close_matches(role, ignored, n=1, cutoff=0.5)
+            if not close:
+                close = [n for n in ignored if n.lower() == role.lower()][:1]
+            hint = f" (did you mean {close[0]!r}? map it with columns={{{close[0]!r}: {role!r}}})"
+            raise DataError(
+                f"{path}, column {role!r}: required column is missing"
+                + (hint if close else "")
+                + f". Columns in the file: {', '.join(header)}"
+            )
+    if ignored:
+        warnings.warn(
+            f"{path}: columns not in the contract are ignored: {', '.join(ignored)}",
+            stacklevel=3,
+        )
+    return roles, sensors
+
+
+def _select_sensors(
+    table: _Table,
+    sensors: dict[float, int],
+    observed: Sequence[float] | None,
+    bottom: float | None,
+) -> tuple[list[float], float]:
+    path = table.path
+    have = sorted(sensors)
+    listing = ", ".join(f"{d:g}" for d in have) or "none"
+
+    def find(depth: object, what: str) -> float:
+        if isinstance(depth, bool) or not isinstance(depth, int | float | np.number):
+            raise DataError(f"{path}: {what} depth must be a number (cm), got {depth!r}")
+        for d in have:
+            if abs(d - float(depth)) < _TOL:
+                return d
+        raise DataError(
+            f"{path}, column 'T_{float(depth):g}cm': no column for the {what} sensor at "
+            f"{float(depth):g} cm; sensor depths in the file (cm): {listing}"
+        )
+
+    if not have:
+        raise DataError(f"{path}: no sensor columns T_<depth>cm in the file")
+    depth_bot = have[-1] if bottom is None else find(bottom, "bottom")
+    if observed is None:
+        depth_obs = [d for d in have if d < depth_bot]
+    else:
+        depth_obs = sorted(find(d, "observed") for d in observed)
+        for a, b in zip(depth_obs, depth_obs[1:], strict=False):
+            if a == b:
+                raise DataError(f"{path}, column 'T_{a:g}cm': observed depth listed twice")
+        for d in depth_obs:
+            if d >= depth_bot:
+                raise DataError(
+                    f"{path}, column 'T_{d:g}cm': observed sensor at {d:g} cm is not shallower "
+                    f"than the bottom boundary at {depth_bot:g} cm"
+                )
+    if observed is not None and not depth_obs:
+        raise DataError(f"{path}: no observed sensor: `observed` is empty")
+    if not depth_obs:
+        raise DataError(
+            f"{path}: no observed sensor: no T_<depth>cm column is shallower than the bottom "
+            f"boundary at {depth_bot:g} cm; sensor depths in the file (cm): {listing}"
+        )
+    return depth_obs, depth_bot

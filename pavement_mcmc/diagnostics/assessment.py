@@ -1,0 +1,158 @@
+"""The convergence assessment of a stored run: per-parameter pass/fail and a run-level verdict."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .burnin import trend_z
+from .stationarity import geweke_components
+from .summarize import summary
+
+#: thresholds of the per-parameter checks
+ESS_MIN = 100.0
+RHAT_MAX = 1.1
+TAU_FACTOR = 50.0  # the chain must be >= 50 IACT long (emcee's rule)
+GEWEKE_Z = 1.96
+
+
+@dataclass
+class Assessment:
+    """Per-parameter diagnostics and the run-level verdict.
+
+    Attributes
+    ----------
+    table : ``{name: {mean, sd, q2.5, q50, q97.5, tau, ess, rhat, geweke_rel, geweke_z,
+        passed}}``.
+    acceptance : overall acceptance after burn-in.
+    acceptance_walkers : (n_chains,) per walker.
+    burn_in, n_steps, n_kept, n_chains : chain lengths.
+    drifting : does the kept log-posterior still trend (|z| > 3)?
+    trend_z : the trend statistic.
+    trusted : the verdict.
+    reasons : why not (empty when trusted).
+    warnings : concerns that do not by themselves fail the run.
+    """
+
+    table: dict[str, dict[str, float]]
+    acceptance: float
+    acceptance_walkers: np.ndarray
+    burn_in: int
+    n_steps: int
+    n_kept: int
+    n_chains: int
+    drifting: bool
+    trend_z: float
+    trusted: bool
+    reasons: list[str]
+    warnings: list[str]
+
+    def to_dict(self) -> dict:
+        d = {k: v for k, v in self.__dict__.items() if k != "acceptance_walkers"}
+        d["acceptance_walkers"] = self.acceptance_walkers.tolist()
+        return d
+
+    def verdict_text(self) -> str:
+        if self.trusted:
+            return ("The run can be trusted: every parameter passes IACT, ESS and split-R-hat, "
+                    "Geweke finds no more early/late differences than chance, and the kept "
+                    "log-posterior does not drift.")
+        return "The run can NOT be trusted yet: " + " ".join(self.reasons)
+
+
+def assess(run, burn_in: int) -> Assessment:
+    """Convergence diagnostics of a stored run after ``burn_in`` steps.
+
+    A parameter passes if the kept chain is at least 50 integrated autocorrelation times long,
+    its ESS is at least 100, split-R-hat < 1.1 and Geweke's |z| < 1.96. The run is trusted if
+    none fails the other checks, no walker is stuck, the kept log-posterior does not drift and
+    Geweke's test on the chain's principal components (uncorrelated, unlike the parameters:
+    :func:`~pavement_mcmc.diagnostics.geweke_components`) fails for at most 10 % of them (5 %
+    by chance) with no |z| above 3.5.
+
+    emcee's walkers are not independent chains: ESS and split-R-hat across walkers are
+    optimistic approximations; the IACT criterion is the primary one.
+    """
+    chain = run.chain
+    n, m, p = chain.shape
+    kept = chain[burn_in:]
+    names = list(run.param_names)
+    nk = kept.shape[0]
+    reasons: list[str] = []
+    warns: list[str] = []
+    if nk < 8:
+        raise ValueError(f"only {nk} steps after a burn-in of {burn_in}: too short to diagnose")
+    summ = summary(kept, names)
+    table = {}
+    n_fail_other, n_fail_gew, big_z = [], [], []
+    for name in names:
+        s = dict(summ[name])
+        ok_tau = np.isfinite(s["tau"]) and nk >= TAU_FACTOR * s["tau"]
+        ok_ess = s["ess"] >= ESS_MIN
+        ok_rhat = np.isfinite(s["rhat"]) and s["rhat"] < RHAT_MAX
+        ok_gew = np.isfinite(s["geweke_z"]) and abs(s["geweke_z"]) < GEWEKE_Z
+        s.update(tau_ok=bool(ok_tau), ess_ok=bool(ok_ess), rhat_ok=bool(ok_rhat),
+                 geweke_ok=bool(ok_gew), passed=bool(ok_tau and ok_ess and ok_rhat and ok_gew))
+        table[name] = s
+        if not (ok_tau and ok_ess and ok_rhat):
+            n_fail_other.append(name)
+        if not ok_gew:
+            n_fail_gew.append(name)
+            if not np.isfinite(s["geweke_z"]) or abs(s["geweke_z"]) > 3.5:
+                big_z.append(name)
+    acc = np.asarray(run.accepted[burn_in:], float)
+    acc_w = acc.mean(axis=0)
+    acceptance = float(acc.mean())
+    lp = run.log_prob[burn_in:]
+    tz = float(trend_z(lp))
+    drifting = bool(abs(tz) > 3.0)
+    taus = np.array([table[k]["tau"] for k in names])
+    short = [k for k in names if not table[k]["tau_ok"]]
+    if short:
+        reasons.append(f"the kept chain ({nk} steps) is shorter than {TAU_FACTOR:g} IACT for "
+                       f"{_list(short)} (max IACT {np.nanmax(taus):.1f} steps): run longer.")
+    low_ess = [k for k in names if not table[k]["ess_ok"]]
+    if low_ess:
+        reasons.append(f"ESS below {ESS_MIN:g} for {_list(low_ess)}.")
+    bad_rhat = [k for k in names if not table[k]["rhat_ok"]]
+    if bad_rhat:
+        reasons.append(f"split-R-hat ≥ {RHAT_MAX} for {_list(bad_rhat)} (walkers disagree).")
+    zc = np.abs(geweke_components(kept[:: max(1, -(-nk // 4000))]))  # thinned as summary
+    n_comp, fail_c = zc.size, int(np.sum(~(zc < GEWEKE_Z)))
+    if big_z or np.any(~(zc <= 3.5)) or fail_c > max(1, 0.1 * n_comp):
+        reasons.append(f"Geweke: early and late means differ for {_list(n_fail_gew)}; "
+                       f"{fail_c} of {n_comp} principal components differ (about "
+                       f"{0.05 * n_comp:.1f} expected by chance).")
+    elif n_fail_gew:
+        warns.append(f"Geweke |z| ≥ 1.96 for {_list(n_fail_gew)}; for the principal components "
+                     f"{fail_c} of {n_comp}: no more than chance ({0.05 * n_comp:.1f} expected; "
+                     "correlated parameters fail together).")
+    if drifting:
+        reasons.append(f"the kept log-posterior still drifts (trend z = {tz:.1f}): burn-in is "
+                       "not over or the chain is still moving.")
+    stuck = int(np.sum(acc_w == 0))
+    if stuck:
+        reasons.append(f"{stuck} of {m} walkers accepted nothing after burn-in (stuck).")
+    if not 0.1 <= acceptance <= 0.9:
+        warns.append(f"acceptance {acceptance:.2f} is outside 0.1–0.9: the proposal scale is "
+                     "poorly tuned and mixing will be slow.")
+    if burn_in > 0.5 * n:
+        warns.append(f"burn-in ({burn_in} steps) is more than half the chain.")
+    return Assessment(table, acceptance, acc_w, int(burn_in), n, nk, m, drifting, tz,
+                      not reasons, reasons, warns)
+
+
+def chains_note(sampler: str) -> str:
+    """What ESS and split-R-hat across chains mean for this sampler."""
+    if "emcee" in str(sampler):
+        return ("emcee walkers are not independent chains (each move uses the other walkers), "
+                "so ESS and split-R-hat across walkers are optimistic; the IACT check (chain "
+                ">= 50 IACT) is the primary one.")
+    return (f"the {sampler or 'sampler'}'s chains are independent Markov chains, so split-R-hat "
+            "across them compares independent runs; the IACT check (chain >= 50 IACT) still "
+            "applies to each.")
+
+
+def _list(names: list[str], k: int = 6) -> str:
+    return ", ".join(names[:k]) + (f" and {len(names) - k} more" if len(names) > k else "")

@@ -1,0 +1,224 @@
+"""Parameters as objects (value, bounds, ``vary`` flag, prior) and the ordered space of them.
+
+A sampler sees only the *free* parameters as a matrix ``theta`` of shape ``(n_sets, n_free)``;
+:meth:`ParameterSpace.expand` turns it into a dict of ``(n_sets,)`` arrays for every parameter,
+fixed ones included, which is what the physics consumes. Fixing a parameter is one word in a
+config (``vary = false``), never a code change.
+"""
+
+from __future__ import annotations
+
+import re
+from collections.abc import Mapping
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+
+from .priors import Flat, GMRFSmoothness, Prior, prior_from_config
+
+
+@dataclass(frozen=True)
+class Parameter:
+    """One model parameter.
+
+    Attributes
+    ----------
+    name : unique name, e.g. ``"kappa"`` or ``"h_3"``.
+    value : initial / fixed value (SI units).
+    lower, upper : hard bounds; outside them the posterior is ``-inf``.
+    vary : False fixes the parameter at ``value``.
+    prior : a :class:`~pavement_mcmc.parameters.priors.Prior` (default: flat within the bounds).
+    unit, description : for tables and figures.
+    group : parameters configured together, e.g. every ``h_i`` has group ``"h"``.
+    """
+
+    name: str
+    value: float
+    lower: float = -np.inf
+    upper: float = np.inf
+    vary: bool = True
+    prior: Prior = field(default_factory=Flat)
+    unit: str = ""
+    description: str = ""
+    group: str = ""
+
+
+_KEYS = {"value", "lower", "upper", "vary", "prior"}
+
+
+class ParameterSpace:
+    """Ordered collection of :class:`Parameter` plus joint priors (e.g. smoothness on h)."""
+
+    def __init__(self, params: list[Parameter], joint_priors: list[GMRFSmoothness] | None = None):
+        names = [p.name for p in params]
+        dup = sorted({n for n in names if names.count(n) > 1})
+        if dup:
+            raise ValueError(f"parameter names clash: {dup}")
+        self.params = {p.name: p for p in params}
+        self.joint_priors = list(joint_priors or [])
+
+    # -- views -------------------------------------------------------------------------------
+    @property
+    def names(self) -> list[str]:
+        return list(self.params)
+
+    @property
+    def free(self) -> list[str]:
+        return [n for n, p in self.params.items() if p.vary]
+
+    def __getitem__(self, name: str) -> Parameter:
+        return self.params[name]
+
+    def __contains__(self, name: str) -> bool:
+        return name in self.params
+
+    def initial(self) -> np.ndarray:
+        """Values of the free parameters, shape ``(n_free,)``."""
+        return np.array([self.params[n].value for n in self.free])
+
+    def bounds(self) -> tuple[np.ndarray, np.ndarray]:
+        lo = np.array([self.params[n].lower for n in self.free])
+        hi = np.array([self.params[n].upper for n in self.free])
+        return lo, hi
+
+    def expand(self, theta: np.ndarray) -> dict[str, np.ndarray]:
+        """Free-parameter matrix ``(n_sets, n_free)`` -> ``{name: (n_sets,)}`` for all parameters."""
+        theta = np.atleast_2d(np.asarray(theta, float))
+        free = self.free
+        if theta.shape[1] != len(free):
+            raise ValueError(f"theta has {theta.shape[1]} columns, expected {len(free)}: {free}")
+        out = {n: theta[:, i] for i, n in enumerate(free)}
+        n_sets = theta.shape[0]
+        for n, p in self.params.items():
+            if not p.vary:
+                out[n] = np.full(n_sets, p.value)
+        return out
+
+    def values(self) -> dict[str, np.ndarray]:
+        """Every parameter at its ``value``, as a one-set dict."""
+        return self.expand(self.initial()[None, :])
+
+    # -- prior -------------------------------------------------------------------------------
+    def log_prior(self, theta: np.ndarray) -> np.ndarray:
+        """Log prior density of each row of ``theta`` (``-inf`` outside the bounds)."""
+        theta = np.atleast_2d(theta)
+        lo, hi = self.bounds()
+        inside = np.all((theta >= lo) & (theta <= hi), axis=1)
+        lp = np.zeros(theta.shape[0])
+        for i, n in enumerate(self.free):
+            lp += self.params[n].prior.logpdf(theta[:, i])
+        if self.joint_priors:
+            p = self.expand(theta)
+            for jp in self.joint_priors:
+                lp += jp.logpdf(p)
+        return np.where(inside & np.isfinite(lp), lp, -np.inf)
+
+    def grad_log_prior(self, theta: np.ndarray, joint: bool = True) -> np.ndarray:
+        """Gradient of :meth:`log_prior` with respect to ``theta`` (n_sets, n_free), for rows
+        inside the bounds; ``joint=False`` leaves the joint (smoothness) priors out."""
+        theta = np.atleast_2d(np.asarray(theta, float))
+        free = self.free
+        out = np.zeros_like(theta)
+        for i, n in enumerate(free):
+            prior = self.params[n].prior
+            if not isinstance(prior, Flat):
+                out[:, i] = prior.grad_logpdf(theta[:, i])
+        if joint and self.joint_priors:
+            p = self.expand(theta)
+            col = {n: i for i, n in enumerate(free)}
+            for jp in self.joint_priors:
+                for n, g in jp.grad_logpdf(p).items():
+                    if n in col:
+                        out[:, col[n]] += g
+        return out
+
+    # -- configuration -----------------------------------------------------------------------
+    def configure(self, section: dict) -> ParameterSpace:
+        """Apply a config ``[parameters]`` section; keys are parameter names or group names.
+
+        Each entry may set ``value``, ``lower``, ``upper``, ``vary`` and ``prior`` (a table, see
+        :func:`~pavement_mcmc.parameters.priors.prior_from_config`). A group entry (``h``) applies to all
+        members; a name entry (``h_3``) overrides the group. Unknown names raise ``ValueError``
+        listing the valid ones.
+        """
+        groups = {p.group for p in self.params.values() if p.group}
+        for key, spec in section.items():
+            if key not in self.params and key not in groups:
+                valid = sorted(set(self.params) | groups, key=_natural)
+                raise ValueError(f"unknown parameter {key!r} in [parameters]; valid: {valid}")
+            if not isinstance(spec, dict) or set(spec) - _KEYS:
+                raise ValueError(
+                    f"[parameters.{key}] must be a table with keys among {sorted(_KEYS)}, got {spec!r}"
+                )
+        new = dict(self.params)
+        for level in ("group", "name"):
+            for key, spec in section.items():
+                is_group = key in groups and key not in self.params
+                if (level == "group") != is_group:
+                    continue
+                for n, p in new.items():
+                    if n == key or (is_group and p.group == key):
+                        new[n] = _apply(p, spec)
+        return ParameterSpace(list(new.values()), self.joint_priors)
+
+
+
+def parameter_values(space, overrides: Mapping[str, float] | None = None) -> dict[str, float]:
+    """Every parameter's value, with ``overrides`` applied.
+
+    Parameters
+    ----------
+    space : :class:`ParameterSpace`
+        Supplies names, groups and default values (config or literature values).
+    overrides : mapping, optional
+        ``{name: value}``; a group name (``"h"``) sets every member (``h_1 .. h_K``); a member
+        name given as well overrides its group.
+
+    Returns
+    -------
+    dict of str to float
+
+    Raises
+    ------
+    ValueError
+        For an unknown name (the message lists the valid ones) or a non-finite value.
+    """
+    values = {n: float(p.value) for n, p in space.params.items()}
+    groups: dict[str, list[str]] = {}
+    for n, p in space.params.items():
+        if p.group:
+            groups.setdefault(p.group, []).append(n)
+    overrides = dict(overrides or {})
+    for key, v in overrides.items():
+        if key not in values and key not in groups:
+            valid = sorted(groups) + [n for n in values if not space[n].group]
+            shown = valid + ([f"{groups['h'][0]}..{groups['h'][-1]}"] if "h" in groups else [])
+            raise ValueError(f"unknown parameter {key!r}; valid: {', '.join(shown)}")
+        if not np.isfinite(float(v)):
+            raise ValueError(f"parameter {key!r}: value {v!r} is not a finite number")
+    for level_group in (True, False):
+        for key, v in overrides.items():
+            is_group = key in groups and key not in values
+            if is_group != level_group:
+                continue
+            for n in groups[key] if is_group else [key]:
+                values[n] = float(v)
+    return values
+
+
+def _apply(p: Parameter, spec: dict) -> Parameter:
+    kw = {k: v for k, v in spec.items() if k != "prior"}
+    if "value" in kw:
+        kw["value"] = float(kw["value"])
+    for b in ("lower", "upper"):
+        if b in kw:
+            kw[b] = float(kw[b])
+    if "vary" in kw:
+        kw["vary"] = bool(kw["vary"])
+    if "prior" in spec:
+        kw["prior"] = prior_from_config(spec["prior"])
+    return replace(p, **kw)
+
+
+def _natural(s: str):
+    return [int(t) if t.isdigit() else t for t in re.split(r"(\d+)", s)]

@@ -1,0 +1,345 @@
+r"""Maximum a posteriori point by least squares and its Gauss–Newton (Laplace) covariance.
+
+The negative log-posterior of the model is written as half a sum of squares,
+
+.. math:: -\log\pi(\theta) = \tfrac12 \lVert r(\theta) \rVert^2 + \text{const},\qquad
+          r = \big[(T_\mathrm{pred}-T_\mathrm{obs})/\sigma,\ (\theta_i-\mu_i)/s_i,\
+          \sqrt{\gamma}\, D h\big],
+
+(whitened residuals, one row per Gaussian prior, and the smoothness prior as residuals), and
+minimised with :func:`scipy.optimize.least_squares` (trust-region reflective, within the bounds)
+in scaled coordinates ``z = theta / scale``. The Jacobian is central finite differences of all
+``2 d`` perturbed sets in ONE vectorised posterior call. Flat and uniform priors contribute no
+rows; other priors are ignored by the fit (the samplers still use the exact posterior).
+
+The smoothness precision :math:`\gamma` (Case C) is not fitted jointly: the joint mode over
+``h`` and :math:`\gamma` drifts to large :math:`\gamma` (the :math:`\gamma^{(N-1)/2}` factor
+rewards shrinking ``Dh``) and biases kappa and C. Instead an EM iteration: fit ``h, kappa, C``
+at fixed :math:`\gamma`, then set :math:`\gamma` to the maximiser of
+:math:`\tfrac{N-1}{2}\log\gamma - \tfrac12\gamma\,E\lVert Dh\rVert^2 + \log\pi(\gamma)` with the
+expectation under the Laplace approximation, :math:`E\lVert Dh\rVert^2 = \lVert D\hat h\rVert^2 +
+\mathrm{tr}(D\Sigma_{hh}D^T)` — an approximate marginal-posterior mode of :math:`\gamma`.
+
+The Laplace covariance is :math:`(J^T J)^{-1}` at the optimum (Gauss–Newton Hessian).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy import optimize
+
+from ..parameters.priors import Normal, TruncatedNormal
+
+__all__ = ["Laplace", "find_map"]
+
+
+@dataclass
+class Laplace:
+    """MAP point and Gaussian approximation of a posterior.
+
+    Attributes
+    ----------
+    names : free parameter names (the posterior's order).
+    theta : (n_free,) the mode in the working coordinates ``z`` mapped back (for ``gamma``: the
+        EM value); ``theta_ls`` is the plain least-squares MAP.
+    cov : (n_free, n_free) Laplace covariance by the delta method (``gamma``: its conditional
+        variance, uncorrelated).
+    z, logc, cov_z : working coordinates of the mode, which of them are logs, their covariance.
+    idx : indices of the parameters in the least-squares fit (all free ones but ``gamma``).
+    scale : (len(idx),) scales ``z = theta[idx] / scale`` (where not log-parameterised).
+    K : (len(idx), len(idx)) Gauss–Newton precision of ``z`` at the MAP, ``J^T J``.
+    B : (len(idx), len(idx)) ``d K / d gamma`` (the smoothness part ``S D^T D S``; zeros if none).
+    gamma_index : index of the free smoothness precision, or None.
+    gamma_hat : the value of gamma used in ``K``.
+    n_gmrf : number N of smoothed pieces (0 if none).
+    gmrf_cols : positions of the smoothed pieces within ``idx``.
+    n_evals : posterior evaluations (parameter sets solved) spent.
+    rmse : (n_sensors,) RMSE per sensor at the MAP, degC.
+    message : the optimiser's last message.
+    """
+
+    names: list[str]
+    theta: np.ndarray
+    cov: np.ndarray
+    idx: np.ndarray
+    scale: np.ndarray
+    K: np.ndarray
+    B: np.ndarray
+    gamma_index: int | None
+    gamma_hat: float
+    n_gmrf: int
+    gmrf_cols: np.ndarray
+    n_evals: int
+    rmse: np.ndarray
+    message: str = ""
+    history: list = field(default_factory=list)
+    z: np.ndarray | None = None
+    logc: np.ndarray | None = None
+    cov_z: np.ndarray | None = None
+    theta_ls: np.ndarray | None = None
+
+    def to_theta(self, Z: np.ndarray) -> np.ndarray:
+        """Working coordinates ``z`` (n, len(idx)) -> theta[idx] (log for ``logc``, else scaled)."""
+        with np.errstate(over="ignore"):
+            return np.where(self.logc, np.exp(Z), Z * self.scale)
+
+    def draw(self, rng: np.random.Generator, n: int, inflate: float = 1.0) -> np.ndarray:
+        """``n`` draws of every free parameter from the Gaussian approximation in the working
+        coordinates (log-normal for log-parameterised ones and for gamma)."""
+        k = self.idx.size
+        Lc = np.linalg.cholesky(self.cov_z + 1e-14 * np.trace(self.cov_z) / k * np.eye(k))
+        Z = self.z + inflate * rng.standard_normal((n, k)) @ Lc.T
+        out = np.repeat(self.theta[None, :], n, axis=0)
+        out[:, self.idx] = self.to_theta(Z)
+        if self.gamma_index is not None:
+            g = self.theta[self.gamma_index]
+            sdl = np.sqrt(self.cov[self.gamma_index, self.gamma_index]) / g
+            out[:, self.gamma_index] = g * np.exp(inflate * sdl * rng.standard_normal(n))
+        return out
+
+    @property
+    def sd(self) -> np.ndarray:
+        return np.sqrt(np.diag(self.cov))
+
+
+class _Residuals:
+    """Whitened residuals of a batch of scaled points ``Z (n, k)`` at fixed gamma."""
+
+    def __init__(self, posterior, theta_full: np.ndarray, idx, scale, gmrf, logc):
+        self.logc = logc
+        self.post = posterior
+        self.space = posterior.space
+        self.base = np.asarray(theta_full, float).copy()
+        self.idx, self.scale = idx, scale
+        free = self.space.free
+        self.prior_rows = []  # (col in idx, mu, sd)
+        for j, i in enumerate(idx):
+            pr = self.space[free[i]].prior
+            if isinstance(pr, Normal | TruncatedNormal):
+                self.prior_rows.append((j, pr.mu, pr.sigma))
+        self.gmrf = gmrf  # (cols in idx of h in order, gamma) or None
+        self.n_evals = 0
+
+    def theta(self, Z: np.ndarray) -> np.ndarray:
+        Z = np.atleast_2d(Z)
+        th = np.repeat(self.base[None, :], Z.shape[0], axis=0)
+        with np.errstate(over="ignore"):
+            th[:, self.idx] = np.where(self.logc, np.exp(Z), Z * self.scale)
+        return th
+
+    def to_z(self, theta_idx: np.ndarray) -> np.ndarray:
+        floor = 1e-3 * self.scale
+        return np.where(self.logc, np.log(np.maximum(theta_idx, floor)), theta_idx / self.scale)
+
+    def dtheta_dz(self, z: np.ndarray) -> np.ndarray:
+        return np.where(self.logc, np.exp(z), self.scale)
+
+    def __call__(self, Z: np.ndarray, gamma: float) -> np.ndarray:
+        th = self.theta(Z)
+        lo, hi = self.space.bounds()
+        ok = np.all(np.isfinite(th) & (th >= lo) & (th <= hi), axis=1)
+        self.n_evals += int(ok.sum())
+        n_res = self.post.obs.size
+        r = np.full((th.shape[0], n_res), 1e6)
+        if ok.any():
+            with np.errstate(all="ignore"):
+                res = self.post.residuals(th[ok])
+                std = getattr(self.post, "standardized_residuals", None)  # input noise, if any
+                r[ok] = std(res) if std else res.reshape(int(ok.sum()), -1) / self.post.sigma
+        parts = [r]
+        if self.prior_rows:
+            j, mu, sd = (np.array(v) for v in zip(*self.prior_rows))
+            parts.append((th[:, self.idx[j]] - mu) / sd)
+        if self.gmrf is not None:
+            h = th[:, self.idx[self.gmrf]]
+            parts.append(np.sqrt(gamma) * np.diff(h, axis=1))
+        out = np.concatenate(parts, axis=1)
+        return np.where(np.isfinite(out), out, 1e6)
+
+    def jac(self, z: np.ndarray, gamma: float, rel: float = 1e-5) -> np.ndarray:
+        k = z.size
+        step = rel * np.maximum(np.abs(z), 1.0)
+        Z = np.repeat(z[None, :], 2 * k, axis=0)
+        Z[np.arange(k), np.arange(k)] += step
+        Z[k + np.arange(k), np.arange(k)] -= step
+        R = self(Z, gamma)
+        return ((R[:k] - R[k:]) / (2 * step[:, None])).T
+
+
+def _scales(space, free, idx, theta0) -> np.ndarray:
+    s = []
+    for i in idx:
+        p = space[free[i]]
+        sd = getattr(p.prior, "sigma", None)
+        if sd is not None and np.isfinite(sd) and sd > 0:
+            s.append(float(sd))
+        else:
+            s.append(max(abs(float(theta0[i])), 1e-3))
+    return np.array(s)
+
+
+def _gamma_update(space, gname, N, S_eff) -> float:
+    """argmax over gamma of (N-1)/2 log g - g S/2 + log prior(g) (optimised in log g)."""
+    prior = space[gname].prior
+
+    def negf(u):
+        g = np.exp(u)
+        lp = float(np.asarray(prior.logpdf(np.array([g])))[0])
+        return -(0.5 * (N - 1) * u - 0.5 * g * S_eff + lp)
+
+    res = optimize.minimize_scalar(negf, bounds=(np.log(1e-8), np.log(1e8)), method="bounded",
+                                   options={"xatol": 1e-8})
+    return float(np.exp(res.x))
+
+
+def _gamma_var(space, gname, N, S, g) -> float:
+    prior = space[gname].prior
+    eps = 1e-4 * g
+
+    def f(x):
+        return 0.5 * (N - 1) * np.log(x) - 0.5 * x * S + float(np.asarray(prior.logpdf(np.array([x])))[0])
+
+    d2 = (f(g + eps) - 2 * f(g) + f(g - eps)) / eps**2
+    return float(1.0 / max(-d2, 1e-12))
+
+
+def find_map(posterior, theta0: np.ndarray | None = None, *, em_max_iter: int = 30,
+             em_tol: float = 1e-2, max_nfev: int = 200, log_positive: bool = True) -> Laplace:
+    """MAP by least squares (EM for a free smoothness precision) and the Laplace covariance.
+
+    Parameters
+    ----------
+    posterior : :class:`~pavement_mcmc.posterior.LogPosterior`.
+    theta0 : (n_free,) start (default: the parameters' values).
+    em_max_iter, em_tol : EM iterations on gamma and the tolerance on ``|d log gamma|``.
+    max_nfev : least-squares iterations per fit.
+    log_positive : parameterise parameters with lower bound 0 by their logarithm (``z = log
+        theta``) and, after the least-squares fit, refine to the mode of the density of ``z``
+        (which includes the Jacobian ``theta``); this keeps the Gaussian approximation away from
+        the hard bound (Case C's night-time h sits at 0 in the plain MAP).
+
+    Returns
+    -------
+    Laplace
+    """
+    space = posterior.space
+    free = space.free
+    theta = np.asarray(space.initial() if theta0 is None else theta0, float).copy()
+    gname, h_names = None, None
+    for jp in space.joint_priors:
+        if getattr(jp, "gamma_name", None) is not None:
+            gname, h_names = jp.gamma_name, list(jp.names)
+    g_free = gname is not None and gname in free
+    gi = free.index(gname) if g_free else None
+    idx = np.array([i for i in range(len(free)) if i != gi], dtype=int)
+    gmrf_cols = None
+    if h_names is not None and all(n in free for n in h_names):
+        pos = {free[i]: j for j, i in enumerate(idx)}
+        gmrf_cols = np.array([pos[n] for n in h_names])
+    gamma = float(theta[gi]) if g_free else (float(space[gname].value) if gname else 0.0)
+    scale = _scales(space, free, idx, theta)
+    lo, hi = space.bounds()
+    logc = (lo[idx] == 0.0) & (theta[idx] > 0) if log_positive else np.zeros(idx.size, bool)
+    res_fn = _Residuals(posterior, theta, idx, scale, gmrf_cols, logc)
+    with np.errstate(divide="ignore"):
+        lo_z = np.where(logc, np.log(np.maximum(1e-6 * scale, lo[idx])), lo[idx] / scale)
+        hi_z = np.where(logc, np.log(hi[idx]), hi[idx] / scale)
+    z = np.clip(res_fn.to_z(theta[idx]), lo_z, hi_z)
+    N = len(h_names) if gmrf_cols is not None else 0
+    history = []
+    msg = ""
+    for _ in range(em_max_iter if g_free else 1):
+        fit = optimize.least_squares(
+            lambda v, g=gamma: res_fn(v[None, :], g)[0],
+            z,
+            jac=lambda v, g=gamma: res_fn.jac(v, g),
+            bounds=(lo_z, hi_z),
+            method="trf",
+            x_scale=1.0,
+            max_nfev=max_nfev,
+        )
+        z, msg = fit.x, fit.message
+        if not g_free:
+            break
+        J = res_fn.jac(z, gamma)
+        Kz = J.T @ J
+        cov_z = np.linalg.pinv(Kz)
+        hz = gmrf_cols
+        sh = res_fn.dtheta_dz(z)[hz]
+        h = res_fn.theta(z)[0, idx[hz]]
+        Sig_h = cov_z[np.ix_(hz, hz)] * np.outer(sh, sh)
+        Dh = np.diff(h)
+        tr = np.trace(Sig_h[1:, 1:] - Sig_h[1:, :-1] - Sig_h[:-1, 1:] + Sig_h[:-1, :-1])
+        S_eff = float(Dh @ Dh + tr)
+        new = _gamma_update(space, gname, N, S_eff)
+        history.append((gamma, new, S_eff))
+        done = abs(np.log(new / gamma)) < em_tol
+        gamma = new
+        if done:
+            break
+    theta_ls = res_fn.theta(z)[0]
+    if logc.any():
+        z = _refine_log(res_fn, z, gamma, lo_z, hi_z)
+    J = res_fn.jac(z, gamma)
+    K = J.T @ J
+    k = idx.size
+    dz = res_fn.dtheta_dz(z)
+    B = np.zeros((k, k))
+    if gmrf_cols is not None:
+        D = np.diff(np.eye(N), axis=0) * dz[gmrf_cols][None, :]
+        B[np.ix_(gmrf_cols, gmrf_cols)] = D.T @ D
+    cov_z = np.linalg.inv(K + 1e-12 * np.trace(K) / k * np.eye(k))
+    cov = np.zeros((len(free), len(free)))
+    cov[np.ix_(idx, idx)] = cov_z * np.outer(dz, dz)
+    theta_map = res_fn.theta(z)[0]
+    if g_free:
+        theta_map[gi] = gamma
+        hh = theta_map[idx[gmrf_cols]]
+        cov[gi, gi] = _gamma_var(space, gname, N, float(np.sum(np.diff(hh) ** 2)), gamma)
+        theta_ls[gi] = gamma
+    _, blobs = posterior(theta_map[None, :])
+    return Laplace(
+        names=list(free), theta=theta_map, cov=cov, idx=idx, scale=scale, K=K, B=B,
+        gamma_index=gi, gamma_hat=gamma, n_gmrf=N,
+        gmrf_cols=gmrf_cols if gmrf_cols is not None else np.zeros(0, int),
+        n_evals=res_fn.n_evals + 1, rmse=blobs[0], message=str(msg), history=history,
+        z=z, logc=logc, cov_z=cov_z, theta_ls=theta_ls,
+    )
+
+
+def _refine_log(res_fn, z, gamma, lo_z, hi_z, max_iter: int = 60):
+    """Damped Gauss–Newton on ``F(z) = |r|^2/2 - sum_{log} z`` (the mode in log coordinates,
+    where the Jacobian of ``theta = exp(z)`` adds ``-z`` per log-transformed parameter)."""
+    e = res_fn.logc.astype(float)
+
+    def F(v):
+        r = res_fn(v[None, :], gamma)[0]
+        return 0.5 * r @ r - e @ v, r
+
+    f, r = F(z)
+    lam = 1e-3
+    for _ in range(max_iter):
+        J = res_fn.jac(z, gamma)
+        g = J.T @ r - e
+        H = J.T @ J
+        dH = np.diag(H).copy()
+        improved = False
+        for _ in range(12):
+            step = np.linalg.solve(H + lam * np.diag(dH + 1.0), -g)
+            step *= min(1.0, 1.0 / max(np.max(np.abs(step)), 1e-300))  # at most e-fold per step
+            zn = np.clip(z + step, lo_z, hi_z)
+            fn, rn = F(zn)
+            if np.isfinite(fn) and fn < f:
+                improved = True
+                break
+            lam *= 10
+        if not improved:
+            break
+        conv = f - fn < 1e-10 * max(1.0, abs(f))
+        z, f, r = zn, fn, rn
+        lam = max(lam / 10, 1e-12)
+        if conv or np.max(np.abs(step)) < 1e-9:
+            break
+    return z

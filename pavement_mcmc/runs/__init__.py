@@ -1,0 +1,37 @@
+"""Step 6, runs: a case driven through the sampler into a run folder, and read back.
+
+- :mod:`.fit`: :func:`fit` and :func:`resume` (config -> problem -> sampler -> store -> tables);
+- :mod:`.loop`: :func:`run_sampler`, the one loop (blocks -> store, stopping rule, progress);
+- :mod:`.casefile`: the run folder's ``case.toml`` / ``config.json`` and what a resume must find
+  unchanged;
+- :mod:`.load`: :func:`load_run` and :func:`point_estimate` (never re-run a sampler);
+- :mod:`.view`: :func:`load_view`, :class:`RunView` (burn-in, kept chain, posterior predictive);
+- :mod:`.tables`: the statistics table (``summary.csv`` / ``summary.md``);
+- :mod:`.export`: ArviZ ``InferenceData`` of a run (optional dependency).
+"""
+
+from .casefile import to_toml
+from .fit import FitOutput, fit, resume
+from .load import load_run, point_estimate
+from .loop import RunResult, run_sampler
+from .tables import format_table, statistics_table, truth_values, write_table
+from .view import Predictive, RunView, load_view, predictive
+
+__all__ = [
+    "FitOutput",
+    "Predictive",
+    "RunResult",
+    "RunView",
+    "fit",
+    "format_table",
+    "load_run",
+    "load_view",
+    "point_estimate",
+    "predictive",
+    "resume",
+    "run_sampler",
+    "statistics_table",
+    "to_toml",
+    "truth_values",
+    "write_table",
+]

@@ -1,0 +1,169 @@
+"""Fit and resume: case config -> problem -> sampler -> store -> result and statistics table.
+
+A run directory holds::
+
+    chain.h5      the chain, log-posterior, RMSE blobs, acceptance and resume state (the storage package)
+    case.toml     the case as run (overrides applied, data paths absolute): rebuilds the problem
+    config.json   the config record (:func:`pavement_mcmc.data.dump_config`) + overrides
+    result.json   the outcome: converged, reason, burn-in, ESS, R-hat, timings
+    summary.csv   the statistics table (paper Tables 1-2 layout); summary.md the same in Markdown
+
+Other modules read a finished run with :func:`pavement_mcmc.runs.load_run`; they never re-run a
+sampler.
+"""
+
+from __future__ import annotations
+
+import json
+import secrets
+from dataclasses import asdict, dataclass
+from pathlib import Path
+
+import numpy as np
+
+from ..data import load_case, merge_overrides
+from ..posterior import Problem, build_problem, find_map
+from ..samplers import get_sampler
+from ..storage import HDF5Store, read_run
+from .casefile import store_meta, write_case_record
+from .loop import RunResult, run_sampler
+from .tables import statistics_table, write_table
+
+
+@dataclass
+class FitOutput:
+    """What :func:`fit` and :func:`resume` return."""
+
+    run_dir: Path
+    result: RunResult
+    table: list[dict]
+    problem: Problem
+
+
+def _sampler_for(problem: Problem, scfg: dict, laplace=None):
+    kind = scfg["kind"]
+    opts = {}
+    if scfg.get("proposal_scale") is not None:
+        opts["proposal_scale"] = float(scfg["proposal_scale"])
+    if scfg.get("move") is not None:
+        opts["move"] = str(scfg["move"])
+    if laplace is not None:
+        opts["laplace"] = laplace
+    return get_sampler(kind, problem.posterior, n_chains=scfg.get("n_walkers"),
+                       seed=scfg.get("seed"), **opts)
+
+
+def _run(problem, sampler, store, scfg, progress, callback, max_seconds) -> RunResult:
+    return run_sampler(
+        sampler, store,
+        ess_target=float(scfg["ess_target"]), max_steps=int(scfg["max_steps"]),
+        max_seconds=max_seconds if max_seconds is not None else scfg.get("max_seconds"),
+        burn_in=scfg.get("burn_in"), thin=int(scfg.get("thin") or 1),
+        progress=progress, callback=callback,
+    )
+
+
+def fit(
+    case: str | Path,
+    out: str | Path,
+    *,
+    overwrite: bool = False,
+    add: list[str] | None = None,
+    set_values: dict[str, float] | None = None,
+    overrides: dict | None = None,
+    sampler: str | None = None,
+    seed: int | None = None,
+    max_seconds: float | None = None,
+    ess_target: float | None = None,
+    progress: bool = False,
+    callback=None,
+) -> FitOutput:
+    """Fit a case TOML and write the run directory ``out``.
+
+    Parameters
+    ----------
+    case : the case TOML.
+    out : the run directory (created).
+    overwrite : replace an existing run in ``out`` (else ``FileExistsError``).
+    add : extension names to add to ``model.extensions``.
+    set_values : ``{name: value}`` parameter values (``parameters.NAME.value``).
+    overrides : further nested config overrides (as ``--set``-style dicts).
+    sampler, seed, max_seconds, ess_target : override ``sampler.kind``, ``.seed``,
+        ``.max_seconds``, ``.ess_target``.
+    progress : tqdm progress bar on stderr. callback : called with a dict after every block.
+
+    Returns
+    -------
+    FitOutput
+    """
+    ov: dict = dict(overrides or {})
+    for name, value in (set_values or {}).items():
+        ov = merge_overrides(ov, {"parameters": {name: {"value": float(value)}}})
+    samp = {k: v for k, v in (("kind", sampler), ("seed", seed), ("max_seconds", max_seconds),
+                                ("ess_target", ess_target)) if v is not None}
+    if samp:
+        ov = merge_overrides(ov, {"sampler": samp})
+    adds = {"model": {"extensions": list(add)}} if add else {}
+    cfg = load_case(case, ov or None, additions=adds or None)
+    if cfg.sampler.get("seed") is None:  # record a seed so the run can be reproduced
+        ov = merge_overrides(ov, {"sampler": {"seed": secrets.randbelow(2**31)}})
+        cfg = load_case(case, ov, additions=adds or None)
+    scfg = cfg.sampler
+    out = Path(out)
+    h5 = out / "chain.h5"
+    if h5.exists() and not overwrite:
+        raise FileExistsError(f"{out} already holds a run; pass --overwrite to replace it or "
+                              f"'pavement-mcmc resume {out}' to continue it")
+    problem = build_problem(cfg)
+    smp = _sampler_for(problem, scfg)
+    if smp.needs_laplace():
+        smp.options["laplace"] = find_map(problem.posterior)
+        smp.n_prep_evals += smp.options["laplace"].n_evals
+    smp.prepare()
+    out.mkdir(parents=True, exist_ok=True)
+    write_case_record(cfg, out, ov, adds)
+    for stale in ("result.json", "summary.csv", "summary.md"):
+        (out / stale).unlink(missing_ok=True)
+    store = HDF5Store.create(h5, problem.space.free, problem.posterior.blob_names, smp.n_chains,
+                             store_meta(cfg, scfg["kind"]), overwrite=True)
+    with store:
+        res = _run(problem, smp, store, scfg, progress, callback, None)
+    return _finish(out, problem, res)
+
+
+def resume(run_dir: str | Path, *, max_seconds: float | None = None, progress: bool = False,
+           callback=None) -> FitOutput:
+    """Continue a stored run from its last saved block, bit for bit.
+
+    The case is re-read from its original TOML (with the run's overrides); if that file is gone
+    the run's own ``case.toml`` is used. A changed config (other than the budgets
+    :data:`BUDGET_KEYS`) or changed data is refused with
+    :class:`~pavement_mcmc.storage.StoreMismatch` naming what changed.
+    """
+    run_dir = Path(run_dir)
+    rec = json.loads((run_dir / "config.json").read_text())
+    orig = Path(rec["toml_path"])
+    src = orig if orig.exists() else run_dir / "case.toml"
+    cfg = load_case(src, rec.get("overrides") or None, additions=rec.get("additions") or None)
+    problem = build_problem(cfg)
+    scfg = cfg.sampler
+    store = HDF5Store.open_append(run_dir / "chain.h5")
+    with store:
+        store.check_compatible(store_meta(cfg, scfg["kind"]))
+        state = store.state
+        if state is None:
+            raise ValueError(f"{run_dir}: the run has no saved block to resume from; fit it again")
+        smp = _sampler_for(problem, scfg)
+        smp.set_state(state)
+        res = _run(problem, smp, store, scfg, progress, callback, max_seconds)
+    return _finish(run_dir, problem, res)
+
+
+def _finish(run_dir: Path, problem: Problem, res: RunResult) -> FitOutput:
+    data = read_run(run_dir / "chain.h5")
+    rec = {k: (v.tolist() if isinstance(v, np.ndarray) else v) for k, v in asdict(res).items()}
+    rec["param_names"] = data.param_names
+    (run_dir / "result.json").write_text(json.dumps(rec, indent=2, default=float))
+    table = statistics_table(problem, data, res.burn_in)
+    write_table(table, run_dir)
+    return FitOutput(run_dir, res, table, problem)

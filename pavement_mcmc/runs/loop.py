@@ -1,0 +1,314 @@
+"""The shared run loop: blocks of steps through one store, a stopping rule, progress.
+
+Rule (checked after every block once adaptation is over):
+
+* burn-in = the adaptation phase (``n_adapt`` steps: fast/mh tune their proposal, emcee none)
+  plus the MSER-5 truncation point of the chain-averaged log-posterior after it
+  (:func:`~pavement_mcmc.diagnostics.choose_burn_in`); a fixed ``burn_in`` overrides both (and
+  is then also the adaptation length);
+* converged when, on the kept chain, every parameter has ESS >= ``ess_target``, the chain is at
+  least ``min_tau_lengths`` (50) integrated autocorrelation times long, every split-R-hat is
+  below ``rhat_max`` (1.01) and the mean log-posterior is not drifting
+  (:func:`~pavement_mcmc.diagnostics.is_drifting`);
+* the checks run at step counts fixed in advance (:data:`CHECK_FIRST`, :data:`CHECK_GROWTH`:
+  a geometric schedule, so a run with a given seed stops at the same step on any machine and
+  the diagnostics stay a small share of a long run's time); a check is skipped while the kept
+  chain is shorter than :data:`SKIP_FRACTION` of the length the last check's tau requires;
+  each stops at the first failing criterion; a run stopped by a budget gets one full check at
+  the end;
+* otherwise the run stops when ``max_steps`` (counted over the whole run, resumes included) or
+  ``max_seconds`` (this invocation) runs out, with ``converged=False`` and the reason.
+
+Every block is appended to the store and flushed with the sampler's full state, so an
+interrupted run (Ctrl-C, ``kill -9``) loses at most the block in flight and a resume continues
+bit for bit (the sampler's random stream does not depend on block boundaries).
+Library code: nothing is printed; ``progress=True`` shows a tqdm bar on stderr and ``callback``
+receives a dict after every block.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .. import diagnostics as dg
+from ..samplers import Sampler
+from ..storage import Store
+
+#: default adaptation length per sampler (steps), as a function of the dimension
+#: rows (after thinning) on which a convergence check estimates tau and split-R-hat
+TAU_ROWS, RHAT_ROWS = 1000, 500
+#: checks at fixed step counts: CHECK_FIRST steps after the adaptation, then whenever the step
+#: count has grown by CHECK_GROWTH (at least CHECK_FIRST steps later), so where a run stops
+#: depends on its seed only, never on the machine's speed, and the checks cost a bounded share
+CHECK_FIRST, CHECK_GROWTH, SKIP_FRACTION = 20, 1.15, 0.7
+
+DEFAULT_ADAPT = {"fast": lambda d: max(150, 10 * d), "hmc": lambda d: 150, "mh": lambda d: max(2000, 50 * d),
+                 "emcee": lambda d: 0}
+
+
+@dataclass
+class RunResult:
+    """Outcome of :func:`run_sampler`.
+
+    Attributes
+    ----------
+    converged : every stopping criterion met.
+    reason : a plain sentence: why the run stopped.
+    n_steps : steps taken in total (all invocations); ``n_saved`` rows stored (``thin``).
+    burn_in : stored rows discarded as burn-in.
+    n_evals : posterior evaluations (solves) in total, preparation included.
+    elapsed : seconds of this invocation.
+    ess, tau, rhat : per parameter on the kept chain (tau in stored rows).
+    acceptance : mean acceptance on the kept chain.
+    drifting : the kept log-posterior still trends.
+    """
+
+    converged: bool
+    reason: str
+    n_steps: int
+    n_saved: int
+    burn_in: int
+    n_evals: int
+    elapsed: float
+    ess: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    tau: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    rhat: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    acceptance: float = float("nan")
+    drifting: bool = False
+
+
+@dataclass
+class Check:
+    burn_in: int
+    ess: np.ndarray
+    tau: np.ndarray
+    rhat: np.ndarray
+    acceptance: float
+    drifting: bool
+    failures: list
+
+
+def check_convergence(chain, logp: np.ndarray, accepted: np.ndarray, n_adapt_rows: int,
+                      burn_in: int | None = None, ess_target: float = 1000.0,
+                      min_tau_lengths: float = 50.0, rhat_max: float = 1.01,
+                      names: list[str] | None = None, full: bool = True) -> Check:
+    """Apply the stopping rule to stored rows (see the module docstring).
+
+    ``chain``: (n_rows, n_chains, n_params) array, or the loop's block list (:class:`Rows`).
+    The estimates use the kept chain thinned to at most :data:`TAU_ROWS` rows (tau, ESS, drift)
+    and :data:`RHAT_ROWS` rows (split-R-hat; the rank normalisation sorts every draw), which
+    keeps a check cheap next to the sampling. With ``full=False`` the check stops at the
+    first failing criterion in the order ESS / length (cheap), drift, R-hat (the costly one):
+    the run loop uses that while the chain is still short; unevaluated R-hats are ``nan``.
+    """
+    take = chain.take if isinstance(chain, Rows) else (lambda idx: chain[idx])
+    if burn_in is None:
+        rest = logp[n_adapt_rows:]
+        extra = dg.choose_burn_in(rest) if rest.shape[0] >= 20 else 0
+        burn_in = n_adapt_rows + extra
+    n_kept = logp.shape[0] - burn_in
+    first = take(np.arange(1))
+    m, p = first.shape[1], first.shape[2]
+    names = names or [f"p{i}" for i in range(p)]
+    if n_kept < 8:
+        return Check(burn_in, np.zeros(p), np.full(p, np.inf), np.full(p, np.inf), float("nan"),
+                     False, [f"only {max(n_kept, 0)} kept steps"])
+    k = max(1, n_kept // TAU_ROWS)
+    tau = dg.integrated_time(take(np.arange(burn_in, logp.shape[0], k)), tol=0, quiet=True) * k
+    ess = n_kept * m / tau
+    acc = float(np.mean(accepted[burn_in:]))
+    fails = []
+    if not np.all(ess >= ess_target):
+        fails.append(f"ESS {ess.min():.0f} < {ess_target:g} ({names[int(np.argmin(ess))]})")
+    if not n_kept >= min_tau_lengths * np.max(tau):
+        fails.append(f"kept chain {n_kept} < {min_tau_lengths:g} x tau_max {np.max(tau):.1f}")
+    drifting = dg.is_drifting(logp[burn_in:][::k])
+    if drifting:
+        fails.append("log-posterior still drifting")
+    rhat = np.full(p, np.nan)
+    if full or not fails:
+        kr = max(1, n_kept // RHAT_ROWS)
+        rhat = dg.split_rhat(take(np.arange(burn_in, logp.shape[0], kr)))
+        if not np.all(rhat < rhat_max):
+            fails.append(f"R-hat {np.nanmax(rhat):.3f} >= {rhat_max}")
+    return Check(burn_in, ess, tau, rhat, acc, drifting, fails)
+
+
+def _round_up(n: float, thin: int) -> int:
+    return int(-(-int(np.ceil(n)) // thin) * thin)
+
+
+class Rows:
+    """The rows stored so far as a list of blocks: a check gathers only the (thinned) rows it
+    uses instead of copying the whole chain (gigabytes on a long Case C run)."""
+
+    def __init__(self):
+        self.blocks: list[np.ndarray] = []
+        self.starts: list[int] = []
+        self.n = 0
+        self._logp: list[np.ndarray] = []
+        self._acc: list[np.ndarray] = []
+
+    def add(self, chain: np.ndarray, logp: np.ndarray, accepted: np.ndarray) -> None:
+        if chain.shape[0]:
+            self.blocks.append(chain)
+            self.starts.append(self.n)
+            self.n += chain.shape[0]
+            self._logp.append(logp)
+            self._acc.append(accepted)
+
+    def small(self) -> tuple[np.ndarray, np.ndarray]:
+        """(log_prob, accepted) of every row, concatenated (cached as one block)."""
+        for lst in (self._logp, self._acc):
+            if len(lst) > 1:
+                lst[:] = [np.concatenate(lst)]
+        return self._logp[0], self._acc[0]
+
+    def take(self, idx: np.ndarray) -> np.ndarray:
+        """Chain rows at increasing global indices ``idx``."""
+        idx = np.asarray(idx, int)
+        bounds = np.searchsorted(idx, [*self.starts, self.n])
+        parts = [blk[idx[a:b] - s] for blk, s, a, b in zip(self.blocks, self.starts, bounds[:-1],
+                                                             bounds[1:]) if b > a]
+        return np.concatenate(parts) if parts else self.blocks[0][:0]
+
+
+def run_sampler(
+    sampler: Sampler,
+    store: Store,
+    *,
+    ess_target: float = 1000.0,
+    max_steps: int = 200_000,
+    max_seconds: float | None = None,
+    burn_in: int | None = None,
+    n_adapt: int | None = None,
+    thin: int = 1,
+    block_seconds: float = 2.0,
+    min_tau_lengths: float = 50.0,
+    rhat_max: float = 1.01,
+    progress: bool = False,
+    callback: Callable[[dict], None] | None = None,
+) -> RunResult:
+    """Run ``sampler`` into ``store`` until converged or out of budget.
+
+    The sampler must be prepared (fresh run, ``store`` empty) or restored with
+    :meth:`Sampler.set_state` from ``store.state`` (resume; the rows already in ``store`` are
+    read back for the diagnostics). ``burn_in`` and ``n_adapt`` are in steps; the adaptation
+    length defaults to :data:`DEFAULT_ADAPT` (or to ``burn_in`` when given). Steps are
+    stored every ``thin``-th step. Returns a :class:`RunResult`.
+    """
+    t0 = time.perf_counter()
+    thin = int(thin)
+    if n_adapt is None:
+        n_adapt = burn_in if burn_in is not None else DEFAULT_ADAPT.get(
+            sampler.name, lambda d: 0)(sampler.ndim)
+    if not sampler.adaptive:
+        n_adapt = 0
+    n_adapt = -(-int(n_adapt) // thin) * thin
+    n_adapt_rows = n_adapt // thin
+    burn_rows = None if burn_in is None else -(-int(burn_in) // thin)
+
+    data = store.read() if store.n_saved else None
+    rows = Rows()
+    if data is not None:
+        rows.add(data.chain, data.log_prob, data.accepted)
+    st = store.state
+    loop_state = dict(st.extra.get("loop", {})) if st is not None else {}
+    n_steps = int(loop_state.get("n_steps", 0))
+    n_evals = int(loop_state.get("n_evals", sampler.n_prep_evals))
+    names = list(store.param_names)
+
+    bar = None
+    if progress:
+        from tqdm.auto import tqdm
+
+        bar = tqdm(total=max_steps, initial=n_steps, unit="step", dynamic_ncols=True, leave=True)
+    block = max(thin, 10 // thin * thin)
+    check = None
+    reason = ""
+    converged = False
+    next_check = int(loop_state.get("next_check", _round_up(n_adapt + CHECK_FIRST, thin)))
+    # a kept chain shorter than SKIP_FRACTION x min_tau_lengths x (last tau_max) cannot pass:
+    # such a check is skipped (the skip depends on the chain only, so runs stay reproducible)
+    hint = loop_state.get("hint", [0, 0.0])  # [burn-in rows, tau_max] of the last check
+    try:
+        while True:
+            if n_steps >= max_steps:
+                reason = f"step budget exhausted ({max_steps} steps)"
+                break
+            if max_seconds is not None and time.perf_counter() - t0 >= max_seconds:
+                reason = f"time budget exhausted ({max_seconds:g} s)"
+                break
+            adapt = n_steps < n_adapt
+            todo = min(block, max_steps - n_steps)
+            if adapt:
+                todo = min(todo, n_adapt - n_steps)
+            if n_steps < next_check:  # end the block on the check point
+                todo = min(todo, next_check - n_steps)
+            todo = max(thin, todo // thin * thin)
+            tb = time.perf_counter()
+            b = sampler.step(todo, adapt=adapt)
+            dt = time.perf_counter() - tb
+            sel = slice(thin - 1, None, thin)
+            for th, lp, bl, acc in zip(b.chain[sel], b.logp[sel], b.blobs[sel], b.accepted[sel]):
+                store.append(th, lp, bl, acc)
+            n_steps += todo
+            n_evals += b.n_evals
+            rows.add(b.chain[sel], b.logp[sel], b.accepted[sel])
+            due = False
+            if not adapt and n_steps >= next_check:  # a check point: check unless it cannot pass
+                next_check = _round_up(max(n_steps + CHECK_FIRST, CHECK_GROWTH * n_steps), thin)
+                due = rows.n - hint[0] >= SKIP_FRACTION * min_tau_lengths * hint[1]
+            state = sampler.get_state()
+            state.extra["loop"] = {"n_steps": n_steps, "n_evals": n_evals, "n_adapt": n_adapt,
+                                   "thin": thin, "next_check": next_check, "hint": hint}
+            store.flush(state)
+            # aim for blocks of ~block_seconds, but at most a quarter of the time so far, so a
+            # short run is not overshot by a long block before its first check
+            target = min(block_seconds, max(0.1, 0.25 * (time.perf_counter() - t0)))
+            block = int(np.clip(todo * target / max(dt, 1e-4), thin, 5000)) // thin * thin
+            block = max(block, thin)
+            if due:
+                check = check_convergence(rows, *rows.small(), n_adapt_rows, burn_rows,
+                                          ess_target, min_tau_lengths, rhat_max, names, full=False)
+                tau_max = float(np.max(check.tau))
+                hint = [int(check.burn_in), tau_max if np.isfinite(tau_max) else 0.0]
+                if not check.failures:
+                    converged = True
+                    reason = (f"ESS >= {ess_target:g} for every parameter, kept chain"
+                              f" >= {min_tau_lengths:g} tau, R-hat < {rhat_max}, no drift")
+                    break
+            info = {"n_steps": n_steps, "n_evals": n_evals, "acceptance": float(b.accepted.mean()),
+                    "adapting": adapt,
+                    "min_ess": None if check is None else float(np.min(check.ess))}
+            if bar is not None:
+                bar.update(todo)
+                bar.set_postfix(acc=f"{info['acceptance']:.2f}",
+                                ess="adapting" if adapt else f"{info['min_ess'] or 0:.0f}")
+            if callback is not None:
+                callback(info)
+    finally:
+        if bar is not None:
+            bar.close()
+    if not converged and n_steps >= n_adapt and rows.n:
+        # stopped by a budget: one full check of everything sampled, for the report
+        check = check_convergence(rows, *rows.small(), n_adapt_rows, burn_rows, ess_target,
+                                  min_tau_lengths, rhat_max, names, full=True)
+    if check is not None and check.failures and not converged:
+        reason += "; not converged: " + "; ".join(check.failures)
+    elif check is None and not converged:
+        reason += "; not converged: still adapting"
+    n_saved = rows.n
+    return RunResult(
+        converged=converged, reason=reason, n_steps=n_steps, n_saved=n_saved,
+        burn_in=check.burn_in if check is not None else n_saved, n_evals=n_evals,
+        elapsed=time.perf_counter() - t0,
+        ess=check.ess if check else np.zeros(0), tau=check.tau if check else np.zeros(0),
+        rhat=check.rhat if check else np.zeros(0),
+        acceptance=check.acceptance if check else float("nan"),
+        drifting=check.drifting if check else False,
+    )

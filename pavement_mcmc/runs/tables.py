@@ -1,0 +1,92 @@
+"""The statistics table of a run (the paper's Tables 1-2 layout): CSV, Markdown and truths."""
+
+from __future__ import annotations
+
+import csv
+import math
+from pathlib import Path
+
+import numpy as np
+
+from .. import diagnostics as dg
+from ..physics import LITERATURE
+from ..posterior import Problem
+from ..storage import RunData
+
+
+def truth_values(problem: Problem) -> dict[str, float]:
+    """True parameter values of a twin case (kappa, C, and h pieces averaged from
+    ``h_true_obs`` with the basis' overlap weights); {} without a truth file."""
+    truth = getattr(problem.cfg, "truth", None)
+    if not truth:
+        return {}
+    out = {k: float(truth[k]) for k in ("kappa", "C") if truth.get(k) is not None}
+    h_obs = truth.get("h_true_obs")
+    basis = problem.model.h_basis
+    if h_obs is not None and not problem.model.replaces_h and len(h_obs) == problem.meas.n_obs:
+        h_obs = np.asarray(h_obs, float)
+        dt = np.diff(problem.meas.t)
+        h_int = 0.5 * (h_obs[1:] + h_obs[:-1])
+        w = basis.W * dt[:, None]
+        pieces = (w.T @ h_int) / w.sum(axis=0)
+        out.update({n: float(v) for n, v in zip(basis.names, pieces)})
+    return out
+
+
+def statistics_table(problem: Problem, data: RunData, burn_in: int) -> list[dict]:
+    """One row per free parameter: unit, literature value, prior mean/sd, posterior mean, sd,
+    2.5 % and 97.5 % quantiles, ESS, split-R-hat and the truth (twin data)."""
+    kept = data.chain[burn_in:]
+    if kept.shape[0] < 4:
+        kept = data.chain[data.n_saved // 2:]
+    try:
+        summ = dg.summary(kept, data.param_names)
+    except ValueError:  # too short for Geweke / R-hat: moments and quantiles only
+        flat = kept.reshape(-1, kept.shape[2])
+        q = np.percentile(flat, [2.5, 97.5], axis=0) if flat.size else np.full((2, flat.shape[1]), np.nan)
+        summ = {n: {"mean": float(flat[:, i].mean()), "sd": float(flat[:, i].std(ddof=1)),
+                    "q2.5": float(q[0, i]), "q97.5": float(q[1, i]), "ess": float("nan"),
+                    "rhat": float("nan")} for i, n in enumerate(data.param_names)}
+    truth = truth_values(problem)
+    rows = []
+    for name in data.param_names:
+        p = problem.space[name]
+        lit = LITERATURE.get("h" if p.group == "h" else name, float("nan"))
+        try:
+            pm, ps = float(p.prior.mean), float(p.prior.sd)
+        except (NotImplementedError, TypeError):
+            pm = ps = float("nan")
+        s = summ[name]
+        rows.append({
+            "parameter": name, "unit": p.unit, "literature": lit, "prior_mean": pm,
+            "prior_sd": ps, "mean": s["mean"], "sd": s["sd"], "q2.5": s["q2.5"],
+            "q97.5": s["q97.5"], "ess": s["ess"], "rhat": s["rhat"],
+            "truth": truth.get(name, float("nan")),
+        })
+    return rows
+
+
+def write_table(rows: list[dict], run_dir: Path) -> None:
+    """``summary.csv`` and ``summary.md`` in ``run_dir``."""
+    if not rows:
+        return
+    keys = list(rows[0])
+    with open(run_dir / "summary.csv", "w", newline="") as fh:
+        w = csv.DictWriter(fh, fieldnames=keys)
+        w.writeheader()
+        w.writerows(rows)
+    (run_dir / "summary.md").write_text(format_table(rows) + "\n")
+
+
+def format_table(rows: list[dict]) -> str:
+    """The statistics table as Markdown (4 significant digits)."""
+    keys = list(rows[0])
+
+    def fmt(v):
+        if isinstance(v, float):
+            return "" if math.isnan(v) else f"{v:.4g}"
+        return str(v)
+
+    lines = ["| " + " | ".join(keys) + " |", "|" + "---|" * len(keys)]
+    lines += ["| " + " | ".join(fmt(r[k]) for k in keys) + " |" for r in rows]
+    return "\n".join(lines)

@@ -1,0 +1,1 @@
+"""Compiled (numba) kernels of the solver and its adjoint; internal."""

@@ -1,0 +1,340 @@
+"""Compiled forward-with-store and reverse sweep (discrete adjoint) of the linear CN kernel.
+
+Internal module; the public API and the derivation live in :mod:`pavement_mcmc.solver.adjoint`, the
+notation and the sets-innermost layout in :mod:`pavement_mcmc.solver.kernels.cn`. The steps are those of
+the forward kernel's own (``_kernels._cn_step`` / ``_be_step`` on a copy of the state in the
+next slot; the factorisation is ``_kernels._prepare``).
+
+State slots. Every solver state of the run gets a slot: slot 0 is ``T0``; a Crank-Nicolson step
+adds one slot, a step replaced by two backward-Euler half steps two (midpoint, end).
+``slot0[j]`` is the slot of the state at ``t_obs[j]``. The reverse sweep needs the states of one
+observation interval at a time; they come either from a store filled by :func:`fwd_serial` /
+:func:`fwd_parallel` (``buf``: each block of ``nb`` sets owns the contiguous segment
+``buf[s0 n_slots N : (s0 + nb) n_slots N]``, viewed as ``(n_slots, N, nb)``) or, without a
+store, are recomputed per interval from the forward output ``out`` (the checkpoints). For up to
+``solver._SCALAR_MAX`` sets, :func:`fwd_scalar` / :func:`vjp_scalar` do the same one set at a
+time with scalar loops (in :mod:`._kernels_adjoint_scalar`, the arithmetic of
+``_kernels_scalar.cn_scalar``), states always stored.
+
+Reverse step, with ``mu = M^-T lambda`` (``lambda`` = d loss / d T+): the parameter
+contributions are ``-mu^T dG/dp`` with ``G = (M - I) X - r b = T - T+`` (``X = T + T+`` for a CN
+step, ``X = T+`` for a half step, the bottom node of ``X`` being the matching sum of
+``T_bottom``). Per set they are accumulated in scale-free sums, which
+:func:`pavement_mcmc.solver.adjoint._gradients` converts:
+
+- ``acc_a[k] = sum r mu_k (X_k - X_k+1)``, ``acc_b[k] = sum r mu_k+1 (X_k - X_k+1)``:
+  ``dL/dkappa_k = -(f_k acc_a[k] / C_k - acc_b[k] / C_k+1) / dx^2`` (``f_0 = 2``, else 1);
+- ``acc_h[j] = sum r mu_0 (X_0 - T_air sum)`` over interval ``j``: ``dL/dh_j = -hs acc_h[j]``
+  with ``hs = 2 / (C_0 dx)``;
+- ``acc_q[j] = sum r mu_0 (interpolation weight of q_j)``: ``dL/dq_j = hs acc_q[j]``;
+- C: every row ``i`` of ``G`` is proportional to ``1/C_i``, so ``dL/dC_i = sum mu_i (T_i - T+_i)
+  / C_i = sum mu_i G_i / C_i``, and ``sum mu_i G_i = c_i acc_a[i] - a_i acc_b[i-1]`` (plus
+  ``hs (sum_j h_j acc_h[j] - sum_j q_j acc_q[j])`` at the surface): no accumulator of its own.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit, prange
+
+from .cn import _FM, _be_step, _cn_step, _lin, _prepare, _store, _surface_pivot
+
+
+@njit(cache=True)
+def slot_layout(substeps, n_start, damp):
+    """``(first, slot0)``: global index of each interval's first step, slot of each ``t_obs``."""
+    n_int = substeps.shape[0]
+    first = np.empty(n_int, dtype=np.int64)
+    slot0 = np.empty(n_int + 1, dtype=np.int64)
+    nstep = 0
+    slot = 0
+    for j in range(n_int):
+        first[j] = nstep
+        slot0[j] = slot
+        for m in range(substeps[j]):
+            slot += 2 if (nstep + m < n_start or (m == 0 and damp)) else 1
+        nstep += substeps[j]
+    slot0[n_int] = slot
+    return first, slot0
+
+
+@njit(cache=True, fastmath=_FM)
+def _transpose_gain(l, invD, gt):
+    """``gt[i] = l[i] invD[i]`` (i >= 1): the bottom-up elimination gains of ``M^T``."""
+    N, nb = l.shape
+    for i in range(1, N):
+        for s in range(nb):
+            gt[i, s] = l[i, s] * invD[i, s]
+
+
+@njit(cache=True, fastmath=_FM)
+def _adjoint_step(
+    lam, mu, T, Tp, ct, cl, u, gt, invD0, invD, r, XN, Ta, wq0, wq1, acc_a, acc_b, acc_h, acc_q, j
+):
+    """One step of the reverse sweep, in place on ``lam``; adds the step's contributions.
+
+    Solves ``mu = M^-T lam`` with the forward factorisation (same pivots as ``M``): ``M^T`` row
+    ``i`` is ``-u[i-1] mu[i-1] + D_i mu[i] - l[i+1] mu[i+1] = lam[i]``; bottom-up
+    ``R[i] = lam[i] + gt[i+1] R[i+1]``, then ``mu[0] = R[0] invD0``,
+    ``mu[i] = (R[i] + u[i-1] mu[i-1]) invD[i]`` (``R`` is kept in ``mu``). Then
+    ``lam <- mu + cl (mu - lam)`` (``cl = 1``: CN, ``2 mu - lam``; ``cl = 0``: half step, ``mu``).
+
+    ``T -> Tp`` is the forward step; ``X = Tp + ct T`` (``ct = 1`` CN, 0 half step); ``XN``,
+    ``Ta``: the bottom and air temperatures (sums) of its right-hand side; ``wq0``, ``wq1``: the
+    total interpolation weights of ``q_j``, ``q_j+1`` in it.
+    """
+    N, nb = lam.shape
+    for s in range(nb):
+        mu[N - 1, s] = lam[N - 1, s]
+    for i in range(N - 2, -1, -1):
+        for s in range(nb):
+            mu[i, s] = lam[i, s] + gt[i + 1, s] * mu[i + 1, s]
+    for s in range(nb):
+        m0 = mu[0, s] * invD0[s]
+        mu[0, s] = m0
+        lam[0, s] = m0 + cl * (m0 - lam[0, s])
+    for s in range(nb):
+        acc_h[j, s] += r * mu[0, s] * (Tp[0, s] + ct * T[0, s] - Ta)
+    for s in range(nb):
+        acc_q[j, s] += r * wq0 * mu[0, s]
+    for s in range(nb):
+        acc_q[j + 1, s] += r * wq1 * mu[0, s]
+    for i in range(1, N):
+        for s in range(nb):
+            mi = (mu[i, s] + u[i - 1, s] * mu[i - 1, s]) * invD[i, s]
+            mu[i, s] = mi
+            lam[i, s] = mi + cl * (mi - lam[i, s])
+    for i in range(N - 1):
+        for s in range(nb):
+            dk = r * ((Tp[i, s] + ct * T[i, s]) - (Tp[i + 1, s] + ct * T[i + 1, s]))
+            acc_a[i, s] += mu[i, s] * dk
+            acc_b[i, s] += mu[i + 1, s] * dk
+    i = N - 1
+    for s in range(nb):
+        acc_a[i, s] += r * mu[i, s] * (Tp[i, s] + ct * T[i, s] - XN)
+
+
+@njit(cache=True, fastmath=_FM)
+def _block_setup(kappaT, CT, s0, nb):
+    """The block's kappa and C (sets innermost) and the factorisation workspace."""
+    N = kappaT.shape[0]
+    kap0 = np.empty((N, nb))
+    CB = np.empty((N, nb))
+    for i in range(N):
+        for s in range(nb):
+            kap0[i, s] = kappaT[i, s0 + s]
+            CB[i, s] = CT[i, s0 + s]
+    return kap0, CB, np.zeros((8, N, nb)), np.zeros((6, nb)), np.zeros((N, nb))
+
+
+@njit(cache=True, fastmath=_FM)
+def _factor(kap0, CB, dx, r, hj, refactor, w, z, gt):
+    """Factorise ``M`` for an interval: all of it if ``refactor`` (new step length), else only
+    the surface pivot (new ``h``); also the transpose gains ``gt``."""
+    if refactor:  # (beta, T_ref, T, Tb0 are unused in the linear case)
+        _prepare(kap0, CB, z[1], 0.0, False, dx, r, hj, gt, 0.0, w, z)
+        _transpose_gain(w[3], w[6], gt)
+    else:
+        _surface_pivot(z[0], z[2], hj, z[4], z[3])
+
+
+@njit(cache=True, fastmath=_FM)
+def _advance(st, k, j, ns, first_j, n_start, damp, T_air, T_bot, qa, qb, w, z):
+    """Interval ``j``'s steps from slot ``k`` of ``st`` on, each into the next slot; returns the
+    slot of the interval's end state. Same steps and arithmetic as ``_kernels._cn_block``."""
+    l, u, g, invD, R = w[3], w[4], w[5], w[6], w[7]
+    hc, hh, invD0, qs = z[2], z[3], z[4], z[5]
+    nb = qa.shape[0]
+    for m in range(ns):
+        w0 = m / ns
+        w1 = (m + 1) / ns
+        if first_j + m < n_start or (m == 0 and damp):  # two backward-Euler half steps
+            for half in range(2):
+                wb = (m + 0.5) / ns if half == 0 else w1
+                for s in range(nb):
+                    qs[s] = hc[s] * _lin(qa[s], qb[s], wb)
+                Ta = _lin(T_air[j], T_air[j + 1], wb)
+                Tb = _lin(T_bot[j], T_bot[j + 1], wb)
+                st[k + 1, :, :] = st[k]
+                _be_step(st[k + 1], R, l, u, g, invD0, hh, Ta, Tb, qs, invD)
+                k += 1
+        else:
+            Ta_sum = _lin(T_air[j], T_air[j + 1], w0) + _lin(T_air[j], T_air[j + 1], w1)
+            Tb_sum = _lin(T_bot[j], T_bot[j + 1], w0) + _lin(T_bot[j], T_bot[j + 1], w1)
+            for s in range(nb):
+                qs[s] = hc[s] * (_lin(qa[s], qb[s], w0) + _lin(qa[s], qb[s], w1))
+            st[k + 1, :, :] = st[k]
+            _cn_step(st[k + 1], R, l, u, g, invD0, hh, Ta_sum, Tb_sum, qs, invD)
+            k += 1
+    return k
+
+
+@njit(cache=True, fastmath=_FM)
+def _retreat(
+    st, k, j, ns, first_j, n_start, damp, T_air, T_bot, r, w, z, gt, lam, mu, acc_a, acc_b, acc_h, acc_q
+):
+    """Reverse sweep through interval ``j`` whose end state is slot ``k`` of ``st``: on entry
+    ``lam`` = d loss / d T(t_obs[j+1]), on return d loss / d T(t_obs[j])."""
+    u, invD, invD0 = w[4], w[6], z[4]
+    for m in range(ns - 1, -1, -1):
+        be = first_j + m < n_start or (m == 0 and damp)
+        for half in range(2 if be else 1):  # latest first: the CN step, or the second half step
+            if be:  # X = T+, b at the half step's end (the step's midpoint, then its end)
+                wb = (m + 0.5) / ns if half == 1 else (m + 1) / ns
+                ct, cl = 0.0, 0.0  # lambda(T) = mu
+                XN = _lin(T_bot[j], T_bot[j + 1], wb)
+                Ta = _lin(T_air[j], T_air[j + 1], wb)
+                wq1 = wb
+            else:  # X = T + T+, b at both ends
+                w0 = m / ns
+                w1 = (m + 1) / ns
+                ct, cl = 1.0, 1.0  # lambda(T) = (2I - M)^T mu = 2 mu - M^T mu = 2 mu - lambda(T+)
+                XN = _lin(T_bot[j], T_bot[j + 1], w0) + _lin(T_bot[j], T_bot[j + 1], w1)
+                Ta = _lin(T_air[j], T_air[j + 1], w0) + _lin(T_air[j], T_air[j + 1], w1)
+                wq1 = w0 + w1
+            _adjoint_step(
+                lam, mu, st[k - 1], st[k], ct, cl, u, gt, invD0, invD, r, XN, Ta, (1.0 + ct) - wq1, wq1,
+                acc_a, acc_b, acc_h, acc_q, j,
+            )
+            k -= 1
+
+
+@njit(cache=True, fastmath=_FM)
+def _fwd_block(kappaT, CT, hT, qT, T_air, T_bot, T0, t_obs, substeps, dx, n_start, damp, s0, nb, out, buf):
+    """Crank-Nicolson for sets ``s0 .. s0+nb-1`` (as ``_kernels._cn_block``, linear), keeping
+    every state in the block's segment of ``buf``; fills their columns of ``out``."""
+    N = kappaT.shape[0]
+    n_int = substeps.shape[0]
+    first, slot0 = slot_layout(substeps, n_start, damp)
+    n_slots = slot0[n_int] + 1
+    st = buf[s0 * n_slots * N : (s0 + nb) * n_slots * N].reshape((n_slots, N, nb))
+    kap0, CB, w, z, gt = _block_setup(kappaT, CT, s0, nb)
+    for i in range(N):
+        for s in range(nb):
+            st[0, i, s] = T0[i]
+    _store(out, 0, s0, st[0], T_bot[0])
+    dt_fact = -1.0
+    for j in range(n_int):
+        ns = substeps[j]
+        dt = (t_obs[j + 1] - t_obs[j]) / ns
+        _factor(kap0, CB, dx, 0.5 * dt, hT[j, s0 : s0 + nb], dt != dt_fact, w, z, gt)
+        dt_fact = dt
+        qa = qT[j, s0 : s0 + nb]
+        qb = qT[j + 1, s0 : s0 + nb]
+        k = _advance(st, slot0[j], j, ns, first[j], n_start, damp, T_air, T_bot, qa, qb, w, z)
+        _store(out, j + 1, s0, st[k], T_bot[j + 1])
+
+
+@njit(cache=True, fastmath=_FM)
+def _vjp_block(
+    kappaT, CT, hT, qT, T_air, T_bot, t_obs, substeps, dx, n_start, damp, out, GT, stored, buf, s0, nb,
+    acc_a, acc_b, acc_h, acc_q,
+):
+    """Reverse sweep for sets ``s0 .. s0+nb-1``; fills their columns of the sums ``acc_a``,
+    ``acc_b`` (N, S), ``acc_h`` (n_obs-1, S), ``acc_q`` (n_obs, S) (module docstring).
+
+    ``out`` (n_obs, N+1, S): the forward solution; ``GT`` (same shape): d loss / d out. If
+    ``stored``, the states are read from ``buf`` (filled by the forward with store); otherwise
+    each interval is recomputed from ``out``. Other arguments as ``_kernels._cn_block``.
+    """
+    N = kappaT.shape[0]
+    n_int = substeps.shape[0]
+    first, slot0 = slot_layout(substeps, n_start, damp)
+    n_slots = slot0[n_int] + 1
+    if stored:
+        st = buf[s0 * n_slots * N : (s0 + nb) * n_slots * N].reshape((n_slots, N, nb))
+    else:
+        max_slots = 0
+        for j in range(n_int):
+            max_slots = max(max_slots, slot0[j + 1] - slot0[j])
+        st = np.empty((max_slots + 1, N, nb))
+    kap0, CB, w, z, gt = _block_setup(kappaT, CT, s0, nb)
+    lam = np.zeros((N, nb))
+    mu = np.zeros((N, nb))
+    a_b = np.zeros((2, N, nb))
+    h_b = np.zeros((n_int, nb))
+    q_b = np.zeros((n_int + 1, nb))
+    dt_fact = -1.0
+    for j in range(n_int - 1, -1, -1):
+        ns = substeps[j]
+        dt = (t_obs[j + 1] - t_obs[j]) / ns
+        _factor(kap0, CB, dx, 0.5 * dt, hT[j, s0 : s0 + nb], dt != dt_fact, w, z, gt)
+        dt_fact = dt
+        if stored:
+            k = slot0[j + 1]
+        else:  # recompute the interval from its checkpoint, as the forward did
+            for i in range(N):
+                for s in range(nb):
+                    st[0, i, s] = out[j, i, s0 + s]
+            qa = qT[j, s0 : s0 + nb]
+            qb = qT[j + 1, s0 : s0 + nb]
+            k = _advance(st, 0, j, ns, first[j], n_start, damp, T_air, T_bot, qa, qb, w, z)
+        for i in range(N):
+            for s in range(nb):
+                lam[i, s] += GT[j + 1, i, s0 + s]
+        _retreat(
+            st, k, j, ns, first[j], n_start, damp, T_air, T_bot, 0.5 * dt, w, z, gt, lam, mu,
+            a_b[0], a_b[1], h_b, q_b,
+        )
+    for i in range(N):
+        for s in range(nb):
+            acc_a[i, s0 + s] = a_b[0, i, s]
+            acc_b[i, s0 + s] = a_b[1, i, s]
+    for j in range(n_int):
+        for s in range(nb):
+            acc_h[j, s0 + s] = h_b[j, s]
+    for j in range(n_int + 1):
+        for s in range(nb):
+            acc_q[j, s0 + s] = q_b[j, s]
+
+
+@njit(cache=True, parallel=True)
+def fwd_parallel(kappaT, CT, hT, qT, T_air, T_bot, T0, t_obs, substeps, dx, n_start, damp, block, out, buf):
+    """:func:`_fwd_block` over blocks of ``block`` sets, the blocks spread over numba's threads."""
+    S = kappaT.shape[1]
+    for b in prange((S + block - 1) // block):
+        s0 = b * block
+        _fwd_block(
+            kappaT, CT, hT, qT, T_air, T_bot, T0, t_obs, substeps, dx, n_start, damp, s0, min(block, S - s0),
+            out, buf,
+        )
+
+
+@njit(cache=True)
+def fwd_serial(kappaT, CT, hT, qT, T_air, T_bot, T0, t_obs, substeps, dx, n_start, damp, block, out, buf):
+    """As :func:`fwd_parallel`, on the calling thread."""
+    S = kappaT.shape[1]
+    for s0 in range(0, S, block):
+        _fwd_block(
+            kappaT, CT, hT, qT, T_air, T_bot, T0, t_obs, substeps, dx, n_start, damp, s0, min(block, S - s0),
+            out, buf,
+        )
+
+
+@njit(cache=True, parallel=True)
+def vjp_parallel(
+    kappaT, CT, hT, qT, T_air, T_bot, t_obs, substeps, dx, n_start, damp, out, GT, stored, buf, block,
+    acc_a, acc_b, acc_h, acc_q,
+):
+    """:func:`_vjp_block` over blocks of ``block`` sets, the blocks spread over numba's threads."""
+    S = kappaT.shape[1]
+    for b in prange((S + block - 1) // block):
+        s0 = b * block
+        _vjp_block(
+            kappaT, CT, hT, qT, T_air, T_bot, t_obs, substeps, dx, n_start, damp, out, GT, stored, buf,
+            s0, min(block, S - s0), acc_a, acc_b, acc_h, acc_q,
+        )
+
+
+@njit(cache=True)
+def vjp_serial(
+    kappaT, CT, hT, qT, T_air, T_bot, t_obs, substeps, dx, n_start, damp, out, GT, stored, buf, block,
+    acc_a, acc_b, acc_h, acc_q,
+):
+    """As :func:`vjp_parallel`, on the calling thread."""
+    S = kappaT.shape[1]
+    for s0 in range(0, S, block):
+        _vjp_block(
+            kappaT, CT, hT, qT, T_air, T_bot, t_obs, substeps, dx, n_start, damp, out, GT, stored, buf,
+            s0, min(block, S - s0), acc_a, acc_b, acc_h, acc_q,
+        )

@@ -1,0 +1,155 @@
+"""Compiled adjoint kernels for a few parameter sets (one set at a time, scalar loops).
+
+Internal module behind :func:`pavement_mcmc.solver.adjoint.solve_vjp`; the notation and the algorithm
+are those of :mod:`pavement_mcmc.solver.kernels.adjoint` (sets-innermost kernels for many sets).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+from .adjoint import slot_layout
+from .cn import _FM, _lin
+from .scalar import _be_half, _cn_full, _scalar_factor
+
+# ---------------------------------------------------------------------------------------------
+# A few sets: one set at a time with scalar loops over depth (the sets-innermost loops above are
+# all set-up for 1-4 sets), as _kernels_scalar.cn_scalar. Stored states only, N >= 2.
+
+
+@njit(cache=True)
+def _scalar_work(kappaT, substeps, n_start, damp, buf):
+    """Slot layout, the state store ``(S, n_slots, N)`` view of ``buf`` and seven work vectors."""
+    N, S = kappaT.shape
+    first, slot0 = slot_layout(substeps, n_start, damp)
+    st = buf.reshape((S, slot0[substeps.shape[0]] + 1, N))
+    return (first, slot0, st, np.empty(N), np.empty(N), np.zeros(N), np.empty(N), np.zeros(N),
+            np.empty(N), np.empty(N))
+
+
+@njit(cache=True, fastmath=_FM)
+def fwd_scalar(kappaT, CT, hT, qT, T_air, T_bot, T0, t_obs, substeps, dx, n_start, damp, out, buf):
+    """Crank-Nicolson set by set (the arithmetic of ``cn_scalar``), keeping every state in
+    ``buf`` viewed as ``(S, n_slots, N)``; fills ``out`` (n_obs, N+1, S)."""
+    N, S = kappaT.shape
+    n_int = substeps.shape[0]
+    first, slot0, st, l, u, g, invD, gt, R, _ = _scalar_work(kappaT, substeps, n_start, damp, buf)
+    for s in range(S):
+        for i in range(N):
+            st[s, 0, i] = T0[i]
+            out[0, i, s] = T0[i]
+        out[0, N, s] = T_bot[0]
+        dt_fact = -1.0
+        d0 = 0.0
+        hc = 0.0
+        for j in range(n_int):
+            ns = substeps[j]
+            dt = (t_obs[j + 1] - t_obs[j]) / ns
+            if dt != dt_fact:
+                d0, hc = _scalar_factor(kappaT, CT, s, dx, 0.5 * dt, l, u, g, invD, gt)
+                dt_fact = dt
+            hh = hc * hT[j, s]
+            invD0 = 1.0 / (d0 + hh)
+            qa = qT[j, s]
+            qb = qT[j + 1, s]
+            k = slot0[j]
+            for m in range(ns):
+                w0 = m / ns
+                w1 = (m + 1) / ns
+                if first[j] + m < n_start or (m == 0 and damp):  # two backward-Euler half steps
+                    for half in range(2):
+                        wk = (m + 0.5) / ns if half == 0 else w1
+                        T = st[s, k]
+                        Tn = st[s, k + 1]
+                        Ta = _lin(T_air[j], T_air[j + 1], wk)
+                        Tb = _lin(T_bot[j], T_bot[j + 1], wk)
+                        qk = hc * _lin(qa, qb, wk)
+                        _be_half(T, Tn, R, l, u, g, invD, invD0, hh, Ta, Tb, qk)
+                        k += 1
+                else:
+                    T = st[s, k]
+                    Tn = st[s, k + 1]
+                    Ta_sum = _lin(T_air[j], T_air[j + 1], w0) + _lin(T_air[j], T_air[j + 1], w1)
+                    Tb_sum = _lin(T_bot[j], T_bot[j + 1], w0) + _lin(T_bot[j], T_bot[j + 1], w1)
+                    q_sum = hc * (_lin(qa, qb, w0) + _lin(qa, qb, w1))
+                    _cn_full(T, Tn, R, l, u, g, invD, invD0, hh, Ta_sum, Tb_sum, q_sum)
+                    k += 1
+            for i in range(N):
+                out[j + 1, i, s] = st[s, k, i]
+            out[j + 1, N, s] = T_bot[j + 1]
+
+
+@njit(cache=True, fastmath=_FM)
+def vjp_scalar(
+    kappaT, CT, hT, T_air, T_bot, t_obs, substeps, dx, n_start, damp, GT, buf, acc_a, acc_b, acc_h, acc_q
+):
+    """Reverse sweep set by set over the states stored by :func:`fwd_scalar`; fills the sums
+    ``acc_a``, ``acc_b`` (N, S), ``acc_h`` (n_obs-1, S), ``acc_q`` (n_obs, S) as
+    :func:`_vjp_block` (same steps as :func:`_adjoint_step`, scalar loops)."""
+    N, S = kappaT.shape
+    n_int = substeps.shape[0]
+    first, slot0, st, l, u, g, invD, gt, lam, mu = _scalar_work(kappaT, substeps, n_start, damp, buf)
+    for s in range(S):
+        for i in range(N):
+            lam[i] = 0.0
+            acc_a[i, s] = 0.0
+            acc_b[i, s] = 0.0
+        for j in range(n_int + 1):
+            acc_q[j, s] = 0.0
+        dt_fact = -1.0
+        d0 = 0.0
+        hc = 0.0
+        for j in range(n_int - 1, -1, -1):
+            ns = substeps[j]
+            dt = (t_obs[j + 1] - t_obs[j]) / ns
+            r = 0.5 * dt
+            if dt != dt_fact:
+                d0, hc = _scalar_factor(kappaT, CT, s, dx, r, l, u, g, invD, gt)
+                dt_fact = dt
+            invD0 = 1.0 / (d0 + hc * hT[j, s])
+            for i in range(N):
+                lam[i] += GT[j + 1, i, s]
+            k = slot0[j + 1]
+            ah = 0.0
+            for m in range(ns - 1, -1, -1):
+                be = first[j] + m < n_start or (m == 0 and damp)
+                for half in range(2 if be else 1):  # latest first
+                    if be:
+                        wb = (m + 0.5) / ns if half == 1 else (m + 1) / ns
+                        ct = 0.0
+                        XN = _lin(T_bot[j], T_bot[j + 1], wb)
+                        Ta = _lin(T_air[j], T_air[j + 1], wb)
+                        wq1 = wb
+                    else:
+                        w0 = m / ns
+                        w1 = (m + 1) / ns
+                        ct = 1.0
+                        XN = _lin(T_bot[j], T_bot[j + 1], w0) + _lin(T_bot[j], T_bot[j + 1], w1)
+                        Ta = _lin(T_air[j], T_air[j + 1], w0) + _lin(T_air[j], T_air[j + 1], w1)
+                        wq1 = w0 + w1
+                    T = st[s, k - 1]
+                    Tp = st[s, k]
+                    # mu = M^-T lam; lam <- mu (half step) or 2 mu - lam (CN): cl = ct
+                    mu[N - 1] = lam[N - 1]
+                    for i in range(N - 2, -1, -1):
+                        mu[i] = lam[i] + gt[i + 1] * mu[i + 1]
+                    mu[0] = mu[0] * invD0
+                    for i in range(1, N):
+                        mu[i] = (mu[i] + u[i - 1] * mu[i - 1]) * invD[i]
+                    for i in range(N):
+                        lam[i] = mu[i] + ct * (mu[i] - lam[i])
+                    nu0 = r * mu[0]
+                    ah += nu0 * (Tp[0] + ct * T[0] - Ta)
+                    acc_q[j, s] += nu0 * ((1.0 + ct) - wq1)
+                    acc_q[j + 1, s] += nu0 * wq1
+                    xk = Tp[0] + ct * T[0]
+                    for i in range(N - 1):
+                        xk1 = Tp[i + 1] + ct * T[i + 1]
+                        dk = r * (xk - xk1)
+                        acc_a[i, s] += mu[i] * dk
+                        acc_b[i, s] += mu[i + 1] * dk
+                        xk = xk1
+                    acc_a[N - 1, s] += r * mu[N - 1] * (xk - XN)
+                    k -= 1
+            acc_h[j, s] = ah
