@@ -50,10 +50,10 @@ def _problem(case: str, overrides: dict | None = None):
 
 def _options(pr, kind: str) -> dict:
     """The case's own sampler options; ``fast`` on Case C: the block move (its best)."""
-    move = pr.cfg.sampler.get("move")
+    opts = dict(pr.cfg.sampler.get("options") or {}) if pr.cfg.sampler["kind"] == kind else {}
     if kind == "fast" and pr.cfg.name == "caseC":
-        move = "block"
-    return {"move": move} if move else {}
+        opts["move"] = "block"
+    return opts
 
 
 def _store(problem, s):
@@ -69,7 +69,7 @@ def to_target(case: str, max_seconds: float, n_chains: int | None = None,
     if kind == "hmc":
         pr.posterior.loglik_and_grad(pr.space.initial()[None])
     t0 = time.perf_counter()
-    s = get_sampler(kind, pr.posterior, n_chains=n_chains, seed=1, **_options(pr, kind))
+    s = get_sampler(kind, pr.posterior, n_chains=n_chains, seed=1, options=_options(pr, kind))
     s.prepare()
     st = _store(pr, s)
     res = run_sampler(s, st, ess_target=1000, max_steps=10**7, max_seconds=max_seconds)
@@ -84,8 +84,8 @@ def fixed_budget(case: str, kind: str, solves: int, lap) -> dict:
     """``kind`` for ``solves`` posterior evaluations (after the shared MAP)."""
     pr = _problem(case)
     opts = _options(pr, kind) if kind in ("fast", "hmc") else {}
-    s = get_sampler(kind, pr.posterior, seed=2, laplace=lap, **opts)
-    s.prepare()
+    s = get_sampler(kind, pr.posterior, seed=2, options=opts)
+    s.prepare(laplace=lap)
     st = _store(pr, s)
     steps = HMC_STEPS[case] if kind == "hmc" else max(40, solves // s.n_chains)
     t0 = time.perf_counter()

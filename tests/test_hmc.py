@@ -32,8 +32,8 @@ def test_recovers_a_gaussian_truncated_through_its_bulk():
     """Reflection at the bound keeps the chain exact: p0 follows the truncated normal and the
     others its linear regression on p0 (E[p_j] = m_j + S_j0/S_00 (E[p0] - m0))."""
     post, a = _truncated()
-    s = get_sampler("hmc", post, n_chains=16, seed=2, laplace=find_map(post))
-    s.prepare()
+    s = get_sampler("hmc", post, n_chains=16, seed=2)
+    s.prepare(laplace=find_map(post))
     store = _store(post, s.n_chains)
     res = run_sampler(s, store, ess_target=1e9, max_steps=1500, n_adapt=150)
     kept = store.read().chain[res.burn_in:]

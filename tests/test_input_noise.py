@@ -112,3 +112,32 @@ def test_whitened_residuals_are_unit_variance_on_independent_twins():
     assert np.mean(plain) > 1.25
     assert abs(np.mean(white) - 1.0) < 4 * np.sqrt(2.0 / n) + 0.05
     assert abs(np.mean(clean) - 1.0) < 0.2
+
+
+def test_reading_a_run_back_never_reoptimises(tmp_path, monkeypatch):
+    """The point the inputs' noise was linearised at is stored with the run; reading the run
+    back (load_run, the report's view, the criticism's point estimate) rebuilds the same
+    likelihood without a single least-squares fit, and a resume continues on it."""
+    from pathlib import Path
+
+    from scipy import optimize
+
+    from pavement_mcmc.runs import fit, load_run, load_view, point_estimate
+
+    case = Path(__file__).resolve().parents[1] / "runs" / "caseA.toml"
+    out = fit(case, tmp_path / "run", seed=5, overrides={
+        "data": {"input_sigma": 0.25},
+        "sampler": {"kind": "emcee", "max_steps": 40, "n_walkers": 12}})
+    stored = out.problem.input_ref
+    assert stored is not None and set(stored) == set(out.problem.space.free)
+    calls = []
+    real = optimize.least_squares
+    monkeypatch.setattr(optimize, "least_squares", lambda *a, **k: calls.append(1) or real(*a, **k))
+    problem, run = load_run(tmp_path / "run")
+    view = load_view(tmp_path / "run")
+    point_estimate(tmp_path / "run")
+    assert calls == [], f"{len(calls)} least-squares fits while reading a run"
+    assert run.meta["input_ref"] == stored
+    theta = run.chain[-1]
+    np.testing.assert_array_equal(problem.posterior(theta)[0], out.problem.posterior(theta)[0])
+    np.testing.assert_array_equal(view.problem.posterior(theta)[0], out.problem.posterior(theta)[0])

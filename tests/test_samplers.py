@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 from scipy import integrate, stats
@@ -35,6 +37,9 @@ class LinearGaussian:
     def residuals(self, theta):
         return (np.atleast_2d(theta) @ self.X.T - self.y)[:, :, None]
 
+    def standardized_residuals(self, r):
+        return r.reshape(*r.shape[:-2], -1) / self.sigma
+
     def loglik_and_grad(self, theta):
         theta = np.atleast_2d(theta)
         r = theta @ self.X.T - self.y
@@ -56,8 +61,8 @@ def _store(post, n_chains):
 def _prepared(kind, post, seed=1):
     from pavement_mcmc.posterior import find_map
 
-    s = get_sampler(kind, post, seed=seed, laplace=find_map(post))
-    s.prepare()
+    s = get_sampler(kind, post, seed=seed)
+    s.prepare(laplace=find_map(post))
     return s
 
 
@@ -135,16 +140,11 @@ def test_gamma_gibbs_draw_is_exact():
     params += [Parameter(n, 10.0, 0.0, 500.0, prior=Flat(), group="h") for n in names]
     space = ParameterSpace(params, [GMRFSmoothness(tuple(names), "gamma")])
 
-    class P:
-        pass
+    from pavement_mcmc.samplers.gamma import draw_gamma
 
-    post = P()
-    post.space, post.ndim = space, len(space.free)
-    s = SAMPLERS["fast"](post, n_chains=4000, seed=5)
-    s.gi, s.hcols = 0, np.arange(1, N + 1)
     h = 10 + np.cumsum(np.random.default_rng(0).normal(0, 0.6, N))
     theta = np.tile(np.r_[1.0, h], (4000, 1))
-    draws = s._draw_gamma(theta)
+    draws = draw_gamma(np.random.default_rng(5), space, theta, 0, np.arange(1, N + 1))
     S = np.sum(np.diff(h) ** 2)
 
     def dens(g):
@@ -202,6 +202,9 @@ class ToyGMRF:
     def residuals(self, theta):
         return (np.atleast_2d(theta)[:, 1:] - self.y)[:, :, None]
 
+    def standardized_residuals(self, r):
+        return r.reshape(*r.shape[:-2], -1) / self.sigma
+
     def log_likelihood_from_residuals(self, r):
         return -0.5 * np.sum((r / self.sigma) ** 2, axis=(-2, -1))
 
@@ -255,9 +258,10 @@ def test_gamma_marginalised_sampler_matches_quadrature(kind, move, opts, steps):
     exact gamma draw) reproduce the joint posterior's gamma and h means and sds of a
     small GMRF toy within Monte Carlo error."""
     post = ToyGMRF()
-    s = get_sampler(kind, post, n_chains=32 if kind == "fast" else 16, seed=4, move=move, **opts)
+    options = {"move": {"kind": move, **opts}} if kind == "fast" else {}
+    s = get_sampler(kind, post, n_chains=32 if kind == "fast" else 16, seed=4, options=options)
     s.prepare()
-    assert s.marginal and getattr(s, "block", False) == (move == "block")
+    assert s.move.name == move if kind == "fast" else s.marginal
     store = _store(post, s.n_chains)
     res = run_sampler(s, store, ess_target=1e9, max_steps=steps, n_adapt=steps // 8)
     kept = store.read().chain[res.burn_in:]
@@ -281,8 +285,11 @@ def test_gamma_marginalised_resume_is_bit_for_bit(kind, move):
     post = ToyGMRF(seed=2)
     n = 120
 
+    opts = ({"move": {"kind": move, "first_window": 20}} if move == "rw" else {"move": move}) \
+        if kind == "fast" else {"metric_at": 40}
+
     def prep():
-        s = get_sampler(kind, post, n_chains=16, seed=7, first_window=20, move=move, metric_at=40)
+        s = get_sampler(kind, post, n_chains=16, seed=7, options=opts)
         s.prepare()
         return s
 
@@ -292,7 +299,7 @@ def test_gamma_marginalised_resume_is_bit_for_bit(kind, move):
     b = prep()
     st_b = _store(post, b.n_chains)
     run_sampler(b, st_b, ess_target=1e9, max_steps=n // 2 - 25, n_adapt=50)  # inside adaptation
-    c = get_sampler(kind, post, first_window=20, move=move, metric_at=40)
+    c = get_sampler(kind, post, options=opts)
     c.set_state(st_b.state)
     st_c = MemoryStore.open_append(st_b)
     run_sampler(c, st_c, ess_target=1e9, max_steps=n, n_adapt=50)
@@ -324,3 +331,81 @@ def test_marginal_map_is_the_em_fixed_point(laplace_em):
         cov = np.linalg.inv(np.eye(post.N) / post.sigma**2 + g * D.T @ D)
         S_eff = S + np.trace(D @ cov @ D.T)
         np.testing.assert_allclose(g, tab.mean_gamma(S_eff), rtol=1e-5)
+
+
+# -- typed options, moves as objects, samplers by module:Class ---------------------------------
+
+def test_options_are_typed_and_unknown_keys_are_refused():
+    post = LinearGaussian()
+    s = get_sampler("hmc", post, options={"trajectory_length": 2, "metric_at": 40})
+    assert s.options.trajectory_length == 2.0 and s.options.metric_at == 40
+    with pytest.raises(ValueError, match=r"unknown option 'trajectroy_length' \(did you mean "
+                                         r"'trajectory_length'\?\); valid options: target_acceptance"):
+        get_sampler("hmc", post, options={"trajectroy_length": 1.0})
+    with pytest.raises(ValueError, match="option 'max_leapfrog' must be int, got 'many'"):
+        get_sampler("hmc", post, options={"max_leapfrog": "many"})
+    with pytest.raises(ValueError, match="unknown option 'beta'.*valid options: target_acceptance, "
+                                         "proposal_scale"):
+        get_sampler("mh", post, options={"beta": 0.3})
+    with pytest.raises(ValueError, match="move 'rw' needs a case with a free smoothness precision"):
+        get_sampler("fast", post, options={"move": "rw"})
+    with pytest.raises(ValueError, match="unknown option 'block_prb'"):
+        get_sampler("fast", ToyGMRF(), options={"move": {"kind": "block", "block_prb": 0.3}})
+
+
+def test_a_move_object_can_be_passed_and_written():
+    from pavement_mcmc.samplers import BlockGMRF, LaplacePCN
+
+    post = ToyGMRF()
+    s = get_sampler("fast", post, n_chains=8, seed=1, options={"move": BlockGMRF(block_prob=0.2)})
+    assert s.move.block_prob == 0.2 and s.move.name == "block"
+
+    class Halved(LaplacePCN):  # a user's move: the pCN move with half the initial step
+        def prepare(self, sampler, theta0=None, laplace=None):
+            super().prepare(sampler, theta0, laplace)
+            self.beta *= 0.5
+
+    lin = LinearGaussian()
+    s = get_sampler("fast", lin, n_chains=8, seed=1, options={"move": Halved()})
+    s.prepare()
+    ref = get_sampler("fast", lin, n_chains=8, seed=1)
+    ref.prepare()
+    assert s.move.beta == pytest.approx(0.5 * ref.move.beta)
+
+
+def test_a_sampler_is_registered_by_module_path(monkeypatch):
+    import sys
+    import types
+
+    from pavement_mcmc.samplers import MHSampler, sampler_class
+
+    class Mine(MHSampler):
+        name = "mine"
+
+    mod = types.ModuleType("my_samplers")
+    mod.Mine = Mine
+    monkeypatch.setitem(sys.modules, "my_samplers", mod)
+    assert sampler_class("my_samplers:Mine") is Mine
+    s = get_sampler("my_samplers:Mine", LinearGaussian(), options={"target_acceptance": 0.3})
+    assert isinstance(s, Mine) and s.options.target_acceptance == 0.3
+    with pytest.raises(ValueError, match="cannot import sampler 'my_samplers:Nope'"):
+        sampler_class("my_samplers:Nope")
+
+
+def test_sampler_options_from_the_case_file(tmp_path):
+    """[sampler.options] and --set sampler.options.X reach the sampler; a typo is refused before
+    anything is written, naming the case file; the old [sampler] move says where it went."""
+    from pavement_mcmc.data import ConfigError, load_case, parse_set
+    from pavement_mcmc.runs import fit
+
+    case = Path(__file__).resolve().parents[1] / "runs" / "caseA.toml"
+    out = fit(case, tmp_path / "a", seed=1, overrides={
+        "sampler": {"kind": "hmc", "max_steps": 30, "options": {"metric_at": 20}}})
+    assert out.result.n_steps == 30
+    with pytest.raises(ConfigError, match=r"caseA\.toml: \[sampler.options\] of sampler 'hmc': "
+                                          "unknown option 'metric'"):
+        fit(case, tmp_path / "b", overrides={"sampler": {"kind": "hmc", "options": {"metric": 3}}})
+    assert parse_set("sampler.options.metric_at=40") == {"sampler": {"options": {"metric_at": 40}}}
+    assert not (tmp_path / "b").exists()
+    with pytest.raises(ConfigError, match=r"\[sampler\] move is now set in \[sampler.options\] move"):
+        load_case(case, {"sampler": {"move": "block"}})

@@ -32,7 +32,7 @@ SBC_PRIOR = {"kappa": TruncatedNormal(1.5, 0.3), "C": TruncatedNormal(1.5e6, 0.3
 
 def _run(post, kind="fast", n_chains=None, seed=0, move=None, **kw):
     opts = {"move": move} if move else {}
-    s = get_sampler(kind, post, n_chains=n_chains, seed=seed, **opts)
+    s = get_sampler(kind, post, n_chains=n_chains, seed=seed, options=opts)
     s.prepare()
     st = MemoryStore.create(post.space.free, post.blob_names, s.n_chains, {"sampler": kind})
     res = run_sampler(s, st, **kw)

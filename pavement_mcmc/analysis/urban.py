@@ -24,11 +24,11 @@ from __future__ import annotations
 import csv
 from collections.abc import Mapping
 from dataclasses import dataclass
-from datetime import UTC, datetime
 from pathlib import Path
 
 import numpy as np
 
+from ..data.times import parse_time
 from ..solver import solve
 
 __all__ = ["STEFAN_BOLTZMANN", "UrbanComparison", "compare", "read_wind_csv", "standard_h"]
@@ -215,7 +215,7 @@ def read_wind_csv(path: str | Path, meas) -> np.ndarray:
         if "time" not in cols or "wind" not in cols:
             raise ValueError(f"{path}: needs the columns 'time' and 'wind', found {cols}")
         reader.fieldnames = cols
-        t0 = _parse_time(meas.time0)
+        t0 = parse_time(meas.time0)
         ts, vs = [], []
         for i, row in enumerate(reader, start=1):
             try:
@@ -228,7 +228,7 @@ def read_wind_csv(path: str | Path, meas) -> np.ndarray:
                 s = float(raw) * 3600.0
             except ValueError:
                 try:
-                    s = (_parse_time(raw) - t0).total_seconds()
+                    s = (parse_time(raw) - t0).total_seconds()
                 except ValueError:
                     raise ValueError(f"{path}: column 'time', data row {i}: {raw!r} is neither "
                                      "an ISO 8601 time nor hours") from None
@@ -248,7 +248,4 @@ def read_wind_csv(path: str | Path, meas) -> np.ndarray:
     return np.interp(meas.t, ts, vs)
 
 
-def _parse_time(s: str) -> datetime:
-    d = datetime.fromisoformat(s.replace("Z", "+00:00"))
-    return d if d.tzinfo else d.replace(tzinfo=UTC)
 

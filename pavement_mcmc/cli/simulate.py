@@ -8,11 +8,11 @@ from __future__ import annotations
 
 import argparse
 import csv
-from datetime import datetime, timedelta
 from pathlib import Path
 
 import numpy as np
 
+from ..data.times import times_after
 from .common import add_json_flag, add_set_option, emit, split_assignments
 
 HELP = "run the forward model at given parameter values; write predictions and a figure"
@@ -59,8 +59,7 @@ def describe_values(values: dict[str, float], space) -> str:
 
 def iso_times(meas) -> list[str]:
     """ISO 8601 UTC time of each observation."""
-    t0 = datetime.fromisoformat(meas.time0.replace("Z", "+00:00"))
-    return [(t0 + timedelta(seconds=float(s))).strftime("%Y-%m-%dT%H:%M:%SZ") for s in meas.t]
+    return times_after(meas.time0, meas.t)
 
 
 def rmse_per_sensor(meas, pred: np.ndarray) -> dict[str, float]:

@@ -51,7 +51,7 @@ def diagnose(
     -------
     Diagnosis
     """
-    values = dict(values or {k: float(v[0]) for k, v in problem.space.values().items()})
+    values = dict(values or problem.space.value_dict())
     rep = analyse_point(problem, values)
     ranking = rank_missing_effects(problem, values, candidates, holdout=holdout) if rank else None
     return Diagnosis(problem, values, rep, ranking)

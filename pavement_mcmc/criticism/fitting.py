@@ -1,8 +1,9 @@
 r"""Quick MAP refits for the criticism, on top of :func:`pavement_mcmc.posterior.map.find_map`.
 
 A refit returns, besides the MAP point, the two parts of the MAP objective
-:math:`\Phi = \chi^2 + P` (``chi2``: the sum of squared standardised data residuals, first
-observation row left out as in the likelihood; ``P``: the squared prior residuals of the
+:math:`\Phi = \chi^2 + P` (``chi2``: the sum of squared whitened data residuals of the posterior,
+:meth:`~pavement_mcmc.posterior.LogPosterior.standardized_residuals`, first observation row left
+out as in the likelihood; ``P``: the squared prior residuals of the
 Gaussian priors and of the smoothness prior, i.e. :math:`-2\log\pi` up to a constant) and the
 **effective number of data-determined parameters**
 
@@ -20,7 +21,6 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..parameters import GMRFSmoothness, Normal, TruncatedNormal
 from ..posterior import find_map
 
 
@@ -64,19 +64,9 @@ class Fit:
 
 
 def prior_penalty(space, theta: np.ndarray) -> float:
-    """Sum of squared prior residuals of ``theta`` (Gaussian priors and GMRF smoothness)."""
-    free = space.free
-    total = 0.0
-    for i, n in enumerate(free):
-        pr = space[n].prior
-        if isinstance(pr, Normal | TruncatedNormal):
-            total += ((theta[i] - pr.mu) / pr.sigma) ** 2
-    p = space.expand(theta[None, :])
-    for jp in space.joint_priors:
-        if isinstance(jp, GMRFSmoothness):
-            h = np.array([p[n][0] for n in jp.names])
-            total += float(p[jp.gamma_name][0]) * float(np.sum(np.diff(h) ** 2))
-    return float(total)
+    """Sum of squared prior residuals of ``theta`` (:class:`~pavement_mcmc.parameters.PriorResiduals`:
+    Gaussian priors and the smoothness prior)."""
+    return float(space.prior_residuals().penalty(np.asarray(theta, float)[None, :])[0])
 
 
 def start_vector(space, start: dict[str, float] | None) -> np.ndarray:
@@ -107,7 +97,7 @@ def refit(problem, start: dict[str, float] | None = None, *, max_nfev: int = 100
     lap = find_map(post, start_vector(problem.space, start), max_nfev=max_nfev)
     theta = np.asarray(lap.theta, float)
     r = post.residuals(theta[None, :])[0]
-    chi2 = float(np.sum((r / post.sigma) ** 2))
+    chi2 = float(np.sum(post.standardized_residuals(r) ** 2))
     return Fit(
         problem=problem,
         names=list(lap.names),
@@ -135,16 +125,11 @@ def _p_eff(post, lap) -> float:
     Z[np.arange(k), idx] = up * scale
     Z[k + np.arange(k), idx] = dn * scale
     with np.errstate(all="ignore"):
-        R = post.residuals(Z).reshape(2 * k, -1) / post.sigma
+        R = post.standardized_residuals(post.residuals(Z))
     Jd = ((R[:k] - R[k:]) / (up - dn)[:, None]).T
     Jd = np.where(np.isfinite(Jd), Jd, 0.0)
     Hd = Jd.T @ Jd
-    free = post.space.free
-    prec = np.zeros(k)
-    for j, i in enumerate(idx):
-        pr = post.space[free[i]].prior
-        if isinstance(pr, Normal | TruncatedNormal):
-            prec[j] = (scale[j] / pr.sigma) ** 2
+    prec = post.space.prior_residuals().precision(len(post.space.free))[idx] * scale**2
     K = Hd + np.diag(prec) + lap.gamma_hat * lap.B
     try:
         return float(np.trace(np.linalg.solve(K + 1e-12 * np.trace(K) / k * np.eye(k), Hd)))

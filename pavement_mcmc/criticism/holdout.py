@@ -7,9 +7,10 @@ score the held-out series. Holding out a whole series keeps the test data's time
 out of the training data (a random hold-out of rows would leak it through the neighbours); what
 remains shared are the forcing errors common to every sensor.
 
-The score is the Gaussian log predictive density per held-out datum with the plug-in sd
-``sigma`` and the RMSE of the held-out predictions (parameter uncertainty is ignored: a MAP
-refit per fold).
+The score is the Gaussian log predictive density per held-out datum with the plug-in sd of
+the posterior's likelihood (``sigma``, or each datum's marginal sd when the inputs' noise is
+integrated out) and the RMSE of the held-out predictions (parameter uncertainty is ignored: a
+MAP refit per fold). Each fold's refit uses the kept sensors' block of the same likelihood.
 """
 
 from __future__ import annotations
@@ -35,7 +36,7 @@ class HoldOut:
     ----------
     labels : held-out sensor labels.
     rmse : (n_sensors,) RMSE of each held-out sensor's prediction, degC.
-    lpd : mean log predictive density per held-out datum (plug-in Gaussian, sd sigma).
+    lpd : mean log predictive density per held-out datum (plug-in Gaussian).
     """
 
     labels: list[str]
@@ -64,7 +65,17 @@ def subproblem(problem, keep: np.ndarray):
     defaults = model.parameter_space()
     params = [problem.space[n] if n in problem.space else p for n, p in defaults.params.items()]
     space = ParameterSpace(params, defaults.joint_priors)
-    return Problem(problem.cfg, model, space, LogPosterior(model, space))
+    post = LogPosterior(model, space)
+    if problem.posterior.input_noise is not None:  # the kept sensors' block of the covariance
+        post.input_noise = problem.posterior.input_noise.subset(_rows(meas, keep))
+    return Problem(problem.cfg, model, space, post, problem.input_ref)
+
+
+def _rows(meas, sensors: np.ndarray) -> np.ndarray:
+    """Mask of the likelihood's data rows (time-major, sensors fastest) of some sensors."""
+    mask = np.zeros((meas.n_obs - 1, meas.n_sensors), bool)
+    mask[:, sensors] = True
+    return mask.ravel()
 
 
 def leave_one_sensor_out(problem, start: dict[str, float] | None = None) -> HoldOut:
@@ -73,7 +84,7 @@ def leave_one_sensor_out(problem, start: dict[str, float] | None = None) -> Hold
     n = meas.n_sensors
     rmse = np.zeros(n)
     lp = []
-    sig = float(meas.sigma)
+    noise = problem.posterior.input_noise
     for k in range(n):
         keep = np.array([i for i in range(n) if i != k])
         sp = subproblem(problem, keep)
@@ -84,5 +95,6 @@ def leave_one_sensor_out(problem, start: dict[str, float] | None = None) -> Hold
         pred = interpolate(nodes, i, w)[:, 0]
         r = pred[1:] - meas.T_obs[1:, k]
         rmse[k] = float(np.sqrt(np.mean(r**2)))
-        lp.append(-0.5 * (r / sig) ** 2 - np.log(sig) - 0.5 * _LOG_2PI)
+        sd = float(meas.sigma) if noise is None else noise.marginal_sd[_rows(meas, [k])]
+        lp.append(-0.5 * (r / sd) ** 2 - np.log(sd) - 0.5 * _LOG_2PI)
     return HoldOut(list(meas.sensor_labels), rmse, float(np.mean(np.concatenate(lp))))

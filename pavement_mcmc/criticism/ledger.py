@@ -105,6 +105,7 @@ def ledger(runs: list[tuple[str, object, dict[str, float]]], *, holdout: bool = 
     for label, problem, values in runs:
         rep = analyse_point(problem, values)
         r = rep.residuals
+        z = problem.posterior.standardized_residuals(r)
         n_free = len(problem.space.free)
         dof = max(r.size - n_free, 1)
         rows.append(
@@ -116,7 +117,7 @@ def ledger(runs: list[tuple[str, object, dict[str, float]]], *, holdout: bool = 
                 rmse=rep.rmse,
                 max_abs=float(np.max(np.abs(r))),
                 lag1=rep.rho,
-                chi2_dof=float(np.sum((r / rep.sigma) ** 2) / dof),
+                chi2_dof=float(np.sum(z * z) / dof),
                 n_free=n_free,
                 holdout=leave_one_sensor_out(problem, values) if holdout else None,
                 residuals=r,

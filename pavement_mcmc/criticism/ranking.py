@@ -284,7 +284,7 @@ def _candidate_problem(ref_problem, ref_fit: Fit, name, h_spec: dict):
     reference model. Returns ``(problem, extension)``.
     """
     present = list(ref_problem.model.extensions)
-    prob = build_problem(ref_problem.cfg, extensions=[*present, name], h_spec=h_spec)
+    prob = _variant(ref_problem, [*present, name], h_spec)
     ext = prob.model.extensions[-1]
     null = ext.null_values(prob.meas)
     if not present or not null:
@@ -292,10 +292,17 @@ def _candidate_problem(ref_problem, ref_fit: Fit, name, h_spec: dict):
     vals = ref_fit.values()
     ref_pred = _predict(ref_problem, vals)
     for i, order in enumerate(([*present, ext], [ext, *present])):
-        cand = prob if i == 0 else build_problem(ref_problem.cfg, extensions=order, h_spec=h_spec)
+        cand = prob if i == 0 else _variant(ref_problem, order, h_spec)
         if np.allclose(_predict(cand, {**vals, **null}), ref_pred, rtol=0.0, atol=1e-9):
             return cand, ext
     return prob, ext
+
+
+def _variant(problem, extensions, h_spec):
+    """``problem``'s case with other extensions or h(t), scored with the same likelihood: a
+    candidate shares the base problem's data covariance (noisy inputs integrated out)."""
+    return build_problem(problem.cfg, extensions=extensions, h_spec=h_spec,
+                         input_noise=problem.posterior.input_noise)
 
 
 def _fit_extension(ref_problem, ref_fit: Fit, name: str, h_spec: dict) -> Fit:
@@ -334,7 +341,7 @@ def rank_missing_effects(
     -------
     Ranking
     """
-    values = dict(values or {k: float(v[0]) for k, v in problem.space.values().items()})
+    values = dict(values or problem.space.value_dict())
     rep = analyse_point(problem, values)
     patterns = plain_signals(rep)
     base = refit(problem, values)
@@ -348,7 +355,7 @@ def rank_missing_effects(
         if spec is None:
             skipped[FINER_H] = "h(t) is already one value per interval or given by an extension"
         else:
-            fp = build_problem(problem.cfg, extensions=list(problem.model.extensions), h_spec=spec)
+            fp = _variant(problem, list(problem.model.extensions), spec)
             start = {**base.values(), **_h_start(problem, base.values(), fp)}
             ff = refit(fp, start)
             entries.append(

@@ -23,10 +23,11 @@ Statistics per sensor
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from datetime import datetime
 
 import numpy as np
 from scipy import stats
+
+from ..data.times import hour_of_day as clock_hours
 
 DAY = 86400.0
 SIGNALS = ("q_net", "wind", "T_air-T_s", "dT_s/dt", "rain", "T_sensor", "tod_sin", "tod_cos")
@@ -175,11 +176,9 @@ def noise_like(rep: ResidualReport, floor: float = 1.25, lag1_max: float = 0.3, 
 def hour_of_day(meas) -> np.ndarray:
     """UTC hour of day of every observation time."""
     try:
-        t0 = datetime.fromisoformat(str(meas.time0).replace("Z", "+00:00"))
-        h0 = t0.hour + t0.minute / 60 + t0.second / 3600
+        return clock_hours(meas.time0, meas.t)
     except ValueError:
-        h0 = 0.0
-    return np.mod(h0 + meas.t / 3600.0, 24.0)
+        return np.mod(meas.t / 3600.0, 24.0)
 
 
 def derived_signals(meas, T_surface: np.ndarray | None = None) -> dict[str, np.ndarray]:
@@ -289,7 +288,7 @@ def analyse_point(problem, values: dict[str, float]) -> ResidualReport:
 
 
 def _complete(problem, values: dict[str, float]) -> dict[str, float]:
-    base = {k: float(v[0]) for k, v in problem.space.values().items()}
+    base = problem.space.value_dict()
     base.update({k: float(v) for k, v in values.items() if k in base})
     return base
 

@@ -27,6 +27,8 @@ Schema (paths are relative to the TOML file's directory)::
     [parameters.<name>]             # keys: PARAMETER_KEYS (value, lower, upper, vary, prior)
     prior = { dist = "truncnormal", mean = 2.27, sd = 0.1135 }
     [sampler]                       # keys and defaults: SAMPLER_DEFAULTS
+    [sampler.options]               # the sampler's own typed options (checked by the sampler),
+    move = "block"                  #   e.g. fast: move; hmc: trajectory_length, metric_at, ...
 
 Parameter names, extension names, prior distributions, h kinds, solver schemes and sampler kinds
 are kept but not checked here: the modules that own them check them.
@@ -44,30 +46,9 @@ from typing import Any
 
 from .measurements import Measurements
 from .reader import read_csv_case
-from .schema import (
-    DATA_KEYS,
-    GRID_DEFAULTS,
-    PARAMETER_KEYS,
-    SAMPLER_DEFAULTS,
-    SECTIONS,
-    ConfigError,
-    _check_h,
-    _validate,
-)
+from .schema import GRID_DEFAULTS, SAMPLER_DEFAULTS, ConfigError, _check_h, _validate
 
-__all__ = [
-    "DATA_KEYS",
-    "GRID_DEFAULTS",
-    "PARAMETER_KEYS",
-    "SAMPLER_DEFAULTS",
-    "SECTIONS",
-    "CaseConfig",
-    "ConfigError",
-    "dump_config",
-    "load_case",
-    "merge_overrides",
-    "parse_set",
-]
+__all__ = ["CaseConfig", "dump_config", "load_case", "merge_overrides", "parse_set"]
 
 
 @dataclass(frozen=True)

@@ -13,9 +13,10 @@ import math
 import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass
-from datetime import UTC, datetime
 
 import numpy as np
+
+from .times import parse_time
 
 #: Cell contents read as "missing" (case-insensitive, after stripping blanks).
 MISSING_TOKENS = frozenset({"", "nan", "na", "n/a", "null", "none", "-"})
@@ -62,15 +63,13 @@ def _parse_times(table: _Table, col: int) -> np.ndarray:
     for i, row in enumerate(table.rows):
         text = row[col]
         try:
-            stamp = datetime.fromisoformat(text)
+            stamp = parse_time(text)
         except ValueError:
             raise table.error(
                 f"cannot parse time {text!r} (expected ISO 8601, e.g. 2004-06-06T00:15:00Z)",
                 name,
                 i,
             ) from None
-        if stamp.tzinfo is None:
-            stamp = stamp.replace(tzinfo=UTC)
         out[i] = stamp.timestamp()
         if i and out[i] <= out[i - 1]:
             kind = "repeats" if out[i] == out[i - 1] else "goes back before"

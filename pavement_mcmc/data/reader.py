@@ -28,7 +28,6 @@ import math
 import re
 import warnings
 from collections.abc import Mapping, Sequence
-from datetime import UTC, datetime
 from pathlib import Path
 
 import numpy as np
@@ -46,6 +45,7 @@ from .checks import (
     _window,
 )
 from .measurements import Measurements
+from .times import format_time
 
 __all__ = ["DataError", "read_csv_case"]
 
@@ -139,7 +139,7 @@ def read_csv_case(
         if arr is not None:
             _check_range(table, roles[role], arr, idx, 0.0, math.inf, f"negative {role}")
 
-    time0 = datetime.fromtimestamp(stamps[idx[0]], tz=UTC).strftime("%Y-%m-%dT%H:%M:%SZ")
+    time0 = format_time(stamps[idx[0]])
     arrays = dict(
         t=t,
         T_air=T_air,

@@ -46,9 +46,12 @@ SAMPLER_DEFAULTS: dict[str, Any] = {
     "max_seconds": None,
     "burn_in": None,
     "thin": 1,
-    "proposal_scale": None,
-    "move": None,
+    "options": {},
 }
+#: [sampler] keys of earlier versions and where they went
+_MOVED_SAMPLER_KEYS = {"proposal_scale": "[sampler.options] proposal_scale (mh) or "
+                                         "move = {kind = ..., proposal_scale = ...} (fast)",
+                       "move": "[sampler.options] move"}
 #: Valid keys of each [parameters.<name>] table.
 PARAMETER_KEYS = ("value", "lower", "upper", "vary", "prior")
 
@@ -127,7 +130,7 @@ _SAMPLER_TYPES = {
     "max_seconds": "number>0",
     "burn_in": "int>=0",
     "thin": "int>0",
-    "proposal_scale": "number>0",
+    "options": "table",
 }
 
 
@@ -163,6 +166,10 @@ def _validate(raw: dict, where: str) -> None:
             _check(where, f"grid.{key}", grid[key], kind)
 
     sampler = raw.get("sampler", {})
+    for key, new in _MOVED_SAMPLER_KEYS.items():
+        if key in sampler:
+            raise ConfigError(f"{where}: [sampler] {key} is now set in {new}; the sampler "
+                              "checks its own options")
     _unknown(where, "[sampler] ", sampler, tuple(SAMPLER_DEFAULTS))
     for key, kind in _SAMPLER_TYPES.items():
         if key in sampler:

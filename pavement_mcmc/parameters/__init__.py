@@ -17,7 +17,7 @@ from .priors import (
     Uniform,
     prior_from_config,
 )
-from .space import Parameter, ParameterSpace, parameter_values
+from .space import Parameter, ParameterSpace, PriorResiduals, parameter_values
 
 __all__ = [
     "Flat",
@@ -25,6 +25,7 @@ __all__ = [
     "Normal",
     "Parameter",
     "ParameterSpace",
+    "PriorResiduals",
     "Prior",
     "Rayleigh",
     "TruncatedNormal",

@@ -16,7 +16,17 @@ _LOG_SQRT_2PI = 0.5 * np.log(2.0 * np.pi)
 
 
 class Prior:
-    """Base class of a univariate prior. Subclasses implement :meth:`logpdf` and :meth:`sample`."""
+    """Base class of a univariate prior. Subclasses implement :meth:`logpdf` and :meth:`sample`.
+
+    A prior whose ``-2 log pdf`` is ``((x - mu) / s)^2`` up to a constant inside its support
+    (the Gaussian family) reports ``(mu, s)`` as :attr:`gaussian`; the least-squares MAP and
+    the criticism then write it as a residual row (:class:`~.space.PriorResiduals`).
+    """
+
+    @property
+    def gaussian(self) -> tuple[float, float] | None:
+        """``(mu, s)`` if ``-2 log pdf = ((x - mu)/s)^2 + const`` on the support, else None."""
+        return None
 
     def logpdf(self, x: np.ndarray) -> np.ndarray:
         raise NotImplementedError
@@ -43,6 +53,10 @@ class _Gaussian(Prior):
 
     mu: float
     sigma: float
+
+    @property
+    def gaussian(self) -> tuple[float, float]:
+        return (self.mu, self.sigma)
 
     @property
     def mean(self):

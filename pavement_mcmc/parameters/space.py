@@ -46,6 +46,68 @@ class Parameter:
 _KEYS = {"value", "lower", "upper", "vary", "prior"}
 
 
+@dataclass(frozen=True)
+class PriorResiduals:
+    r"""The priors of a :class:`ParameterSpace` written as residuals: :math:`-2\log\pi(\theta) =
+    \lVert r(\theta)\rVert^2 + \text{const}`.
+
+    One row per free parameter with a Gaussian-family prior (:attr:`Prior.gaussian`),
+    :math:`(\theta_i - \mu_i)/s_i`, and :math:`N - 1` rows per smoothness prior,
+    :math:`\sqrt{\gamma}\,Dh`; flat and uniform priors add no row (their bounds are kept by the
+    parameters). The one place a prior becomes residuals: the least-squares MAP, the criticism's
+    prior penalty and its effective parameter count all use it.
+
+    Attributes
+    ----------
+    cols : (k,) free-parameter columns of the Gaussian rows; ``mu``, ``sd`` their means and sds.
+    smooth : ``(h columns, gamma column or None, fixed gamma)`` per smoothness prior whose h are
+        all free.
+    """
+
+    cols: np.ndarray
+    mu: np.ndarray
+    sd: np.ndarray
+    smooth: tuple
+
+    @classmethod
+    def of(cls, space: ParameterSpace) -> PriorResiduals:
+        free = space.free
+        rows = [(i, *space[n].prior.gaussian) for i, n in enumerate(free)
+                if space[n].prior.gaussian is not None]
+        cols, mu, sd = (np.array(v, dtype=t) for v, t in
+                        zip(zip(*rows, strict=True) if rows else ((), (), ()), (int, float, float),
+                            strict=True))
+        col = {n: i for i, n in enumerate(free)}
+        smooth = []
+        for jp in space.joint_priors:
+            if isinstance(jp, GMRFSmoothness) and all(n in col for n in jp.names):
+                g = jp.gamma_name
+                smooth.append((np.array([col[n] for n in jp.names]), col.get(g),
+                               float(space[g].value)))
+        return cls(cols, mu, sd, tuple(smooth))
+
+    def __call__(self, theta: np.ndarray, gamma: float | None = None) -> np.ndarray:
+        """Residual rows ``(n_sets, n_rows)`` of ``theta`` (n_sets, n_free); ``gamma`` overrides
+        the smoothness precision (the MAP's EM step holds it fixed)."""
+        theta = np.atleast_2d(theta)
+        parts = [(theta[:, self.cols] - self.mu) / self.sd]
+        for hcols, gcol, gfix in self.smooth:
+            g = gamma if gamma is not None else (theta[:, gcol] if gcol is not None else gfix)
+            parts.append(np.sqrt(np.asarray(g, float)).reshape(-1, 1) * np.diff(theta[:, hcols], axis=1))
+        return np.concatenate(parts, axis=1)
+
+    def penalty(self, theta: np.ndarray) -> np.ndarray:
+        """``||r||^2`` per set: ``-2 log prior`` up to a constant."""
+        r = self(theta)
+        return np.sum(r * r, axis=1)
+
+    def precision(self, n_free: int) -> np.ndarray:
+        """Diagonal ``1/s^2`` of the Gaussian rows on every free parameter (0 where none)."""
+        out = np.zeros(n_free)
+        out[self.cols] = 1.0 / self.sd**2
+        return out
+
+
 class ParameterSpace:
     """Ordered collection of :class:`Parameter` plus joint priors (e.g. smoothness on h)."""
 
@@ -131,6 +193,14 @@ class ParameterSpace:
                     if n in col:
                         out[:, col[n]] += g
         return out
+
+    def prior_residuals(self) -> PriorResiduals:
+        """The priors as residual rows (see :class:`PriorResiduals`)."""
+        return PriorResiduals.of(self)
+
+    def value_dict(self) -> dict[str, float]:
+        """Every parameter at its ``value``, as floats by name."""
+        return {n: float(p.value) for n, p in self.params.items()}
 
     # -- configuration -----------------------------------------------------------------------
     def configure(self, section: dict) -> ParameterSpace:

@@ -17,7 +17,7 @@ import numpy as np
 from ..parameters import Parameter
 from ..parameters.priors import Normal, TruncatedNormal, Uniform
 from .base import Extension
-from .observe import interpolation_weights
+from .observe import interpolate, interpolation_weights
 from .registry import register_extension
 
 
@@ -93,12 +93,7 @@ class SensorDepth(Extension):
         labels = model.meas.sensor_labels
         dz = np.stack([p[f"dz_{lab}"] for lab in labels], axis=-1)  # (n_sets, n_sensors)
         i, w = interpolation_weights(model.grid.x, model.meas.depths[None, :] + dz)
-        n_sets = T_nodes.shape[0]
-        rows = np.arange(n_sets)[:, None, None]
-        obs_t = np.arange(T_nodes.shape[1])[None, :, None]
-        Tl = T_nodes[rows, obs_t, i[:, None, :]]
-        Tr = T_nodes[rows, obs_t, i[:, None, :] + 1]
-        shifted = Tl * (1.0 - w[:, None, :]) + Tr * w[:, None, :]
+        shifted = interpolate(T_nodes, i, w)
         # add the depth change to what the earlier hooks made (e.g. sensor_bias), not replace it
         return pred + shifted - model.observe_nominal(T_nodes)
 

@@ -70,10 +70,6 @@ class HBasis:
             )
         raise ValueError(f"unknown h kind {kind!r}; valid: pieces, per_interval, uniform")
 
-    @property
-    def centers_hours(self) -> np.ndarray:
-        return 0.5 * (self.edges[1:] + self.edges[:-1]) / 3600.0
-
     def parameters(self) -> list[Parameter]:
         prior = TruncatedNormal(10.0, 5.0)
         return [

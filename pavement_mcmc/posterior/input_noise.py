@@ -52,6 +52,7 @@ class InputNoise:
     d : (r,) ``(1 + s^2)^(-1/2) - 1``.
     logdet : ``log det Sigma``.
     marginal_sd : (n_data,) sd of each datum, ``sqrt(sigma^2 + sigma_in^2 (U U^T)_ii)``.
+    F : (n_data, n_inputs) ``sigma_in U``, so that ``Sigma = sigma^2 I + F F^T``.
     """
 
     sigma: float
@@ -60,6 +61,7 @@ class InputNoise:
     d: np.ndarray
     logdet: float
     marginal_sd: np.ndarray
+    F: np.ndarray | None = None
 
     @classmethod
     def from_jacobian(cls, U: dict[str, np.ndarray], sigma: float,
@@ -70,13 +72,22 @@ class InputNoise:
             raise ValueError(f"need sigma > 0 and input sds >= 0; got {sigma}, {sigmas}")
         F = np.concatenate([np.asarray(sigmas[k], float) * np.asarray(U[k], float) for k in sigmas],
                            axis=1)  # Sigma = sigma^2 I + F F^T
+        return cls._from_factor(F, float(sigma), dict(sigmas))
+
+    @classmethod
+    def _from_factor(cls, F: np.ndarray, sigma: float, sigmas: dict) -> InputNoise:
         Q, s, _ = np.linalg.svd(F / sigma, full_matrices=False)
         keep = s**2 > 1e-4  # smaller terms change no whitened residual by more than 5e-5
         Q, s = Q[:, keep], s[keep]
         n = F.shape[0]
         logdet = n * np.log(sigma**2) + float(np.sum(np.log1p(s**2)))
         sd = np.sqrt(sigma**2 + np.sum(F * F, axis=1))
-        return cls(float(sigma), dict(sigmas), Q, 1.0 / np.sqrt(1.0 + s**2) - 1.0, logdet, sd)
+        return cls(sigma, sigmas, Q, 1.0 / np.sqrt(1.0 + s**2) - 1.0, logdet, sd, F)
+
+    def subset(self, rows: np.ndarray) -> InputNoise:
+        """The whitening of the data ``rows`` alone (a boolean mask or indices): the covariance
+        of a subset of Gaussian data is the sub-matrix of ``Sigma`` (hold-out checks)."""
+        return self._from_factor(self.F[rows], self.sigma, self.sigma_in)
 
     def whiten(self, r: np.ndarray) -> np.ndarray:
         """``Sigma^(-1/2) r`` for residual rows ``r`` (..., n_data)."""

@@ -30,9 +30,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy import optimize
 
-from ..parameters.priors import Normal, TruncatedNormal
-
-__all__ = ["Laplace", "find_map"]
+__all__ = ["Laplace", "ScaledResiduals", "find_map", "parameter_scales"]
 
 
 @dataclass
@@ -104,22 +102,18 @@ class Laplace:
         return np.sqrt(np.diag(self.cov))
 
 
-class _Residuals:
-    """Whitened residuals of a batch of scaled points ``Z (n, k)`` at fixed gamma."""
+class ScaledResiduals:
+    """Whitened residuals of a batch of scaled points ``Z (n, k)`` at fixed gamma: the
+    posterior's whitened data residuals (:meth:`LogPosterior.standardized_residuals`), then the
+    priors' residual rows (:class:`~pavement_mcmc.parameters.PriorResiduals`)."""
 
-    def __init__(self, posterior, theta_full: np.ndarray, idx, scale, gmrf, logc):
+    def __init__(self, posterior, theta_full: np.ndarray, idx, scale, logc):
         self.logc = logc
         self.post = posterior
         self.space = posterior.space
         self.base = np.asarray(theta_full, float).copy()
         self.idx, self.scale = idx, scale
-        free = self.space.free
-        self.prior_rows = []  # (col in idx, mu, sd)
-        for j, i in enumerate(idx):
-            pr = self.space[free[i]].prior
-            if isinstance(pr, Normal | TruncatedNormal):
-                self.prior_rows.append((j, pr.mu, pr.sigma))
-        self.gmrf = gmrf  # (cols in idx of h in order, gamma) or None
+        self.priors = self.space.prior_residuals()
         self.n_evals = 0
 
     def theta(self, Z: np.ndarray) -> np.ndarray:
@@ -145,17 +139,8 @@ class _Residuals:
         r = np.full((th.shape[0], n_res), 1e6)
         if ok.any():
             with np.errstate(all="ignore"):
-                res = self.post.residuals(th[ok])
-                std = getattr(self.post, "standardized_residuals", None)  # input noise, if any
-                r[ok] = std(res) if std else res.reshape(int(ok.sum()), -1) / self.post.sigma
-        parts = [r]
-        if self.prior_rows:
-            j, mu, sd = (np.array(v) for v in zip(*self.prior_rows))
-            parts.append((th[:, self.idx[j]] - mu) / sd)
-        if self.gmrf is not None:
-            h = th[:, self.idx[self.gmrf]]
-            parts.append(np.sqrt(gamma) * np.diff(h, axis=1))
-        out = np.concatenate(parts, axis=1)
+                r[ok] = self.post.standardized_residuals(self.post.residuals(th[ok]))
+        out = np.concatenate([r, self.priors(th, gamma)], axis=1)
         return np.where(np.isfinite(out), out, 1e6)
 
     def jac(self, z: np.ndarray, gamma: float, rel: float = 1e-5) -> np.ndarray:
@@ -168,13 +153,15 @@ class _Residuals:
         return ((R[:k] - R[k:]) / (2 * step[:, None])).T
 
 
-def _scales(space, free, idx, theta0) -> np.ndarray:
+def parameter_scales(space, idx, theta0) -> np.ndarray:
+    """Working scale of each free parameter in ``idx``: its Gaussian prior's sd, else
+    ``max(|theta0|, 1e-3)``."""
+    free = space.free
     s = []
     for i in idx:
-        p = space[free[i]]
-        sd = getattr(p.prior, "sigma", None)
-        if sd is not None and np.isfinite(sd) and sd > 0:
-            s.append(float(sd))
+        g = space[free[i]].prior.gaussian
+        if g is not None and np.isfinite(g[1]) and g[1] > 0:
+            s.append(float(g[1]))
         else:
             s.append(max(abs(float(theta0[i])), 1e-3))
     return np.array(s)
@@ -239,10 +226,10 @@ def find_map(posterior, theta0: np.ndarray | None = None, *, em_max_iter: int = 
         pos = {free[i]: j for j, i in enumerate(idx)}
         gmrf_cols = np.array([pos[n] for n in h_names])
     gamma = float(theta[gi]) if g_free else (float(space[gname].value) if gname else 0.0)
-    scale = _scales(space, free, idx, theta)
+    scale = parameter_scales(space, idx, theta)
     lo, hi = space.bounds()
     logc = (lo[idx] == 0.0) & (theta[idx] > 0) if log_positive else np.zeros(idx.size, bool)
-    res_fn = _Residuals(posterior, theta, idx, scale, gmrf_cols, logc)
+    res_fn = ScaledResiduals(posterior, theta, idx, scale, logc)
     with np.errstate(divide="ignore"):
         lo_z = np.where(logc, np.log(np.maximum(1e-6 * scale, lo[idx])), lo[idx] / scale)
         hi_z = np.where(logc, np.log(hi[idx]), hi[idx] / scale)

@@ -38,6 +38,8 @@ import numpy as np
 from scipy import optimize
 from scipy.interpolate import CubicSpline
 
+from .map import ScaledResiduals, parameter_scales
+
 __all__ = ["MarginalGMRF", "MarginalMAP", "find_marginal_map", "gmrf_of"]
 
 
@@ -196,8 +198,6 @@ def find_marginal_map(posterior, table: MarginalGMRF, theta0=None, *, em_max_ite
     (Case C: gamma 6.9 against a posterior mean ~0.8), so its covariance is far too narrow there
     for a random-walk proposal.
     """
-    from .map import _Residuals, _scales
-
     space = posterior.space
     free = space.free
     gname, hnames = gmrf_of(space)
@@ -206,9 +206,9 @@ def find_marginal_map(posterior, table: MarginalGMRF, theta0=None, *, em_max_ite
     pos = {free[i]: j for j, i in enumerate(idx)}
     gcols = np.array([pos[n] for n in hnames])
     theta = np.asarray(space.initial() if theta0 is None else theta0, float).copy()
-    scale = _scales(space, free, idx, theta)
+    scale = parameter_scales(space, idx, theta)
     lo, hi = space.bounds()
-    res_fn = _Residuals(posterior, theta, idx, scale, gcols, np.zeros(idx.size, bool))
+    res_fn = ScaledResiduals(posterior, theta, idx, scale, np.zeros(idx.size, bool))
     lo_z, hi_z = lo[idx] / scale, hi[idx] / scale
     z = np.clip(theta[idx] / scale, lo_z, hi_z)
     gamma = float(theta[gi])

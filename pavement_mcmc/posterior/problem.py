@@ -9,24 +9,33 @@ import numpy as np
 from ..parameters import ParameterSpace
 from ..physics import HBasis, Model
 from ..solver import Grid
+from .input_noise import InputNoise, input_jacobian
 from .logpost import LogPosterior
+from .map import find_map
 
 
 @dataclass
 class Problem:
-    """Everything a sampler needs, built once from a config."""
+    """Everything a sampler needs, built once from a config.
+
+    ``input_ref`` is the point (free parameter values by name) at which the inputs' noise was
+    linearised (``[data] input_sigma`` and friends), None when the inputs are exact; a run
+    stores it so that reading the run back rebuilds the same likelihood without a new MAP.
+    """
 
     cfg: object  # pavement_mcmc.data.CaseConfig
     model: Model
     space: ParameterSpace
     posterior: LogPosterior
+    input_ref: dict | None = None
 
     @property
     def meas(self):
         return self.model.meas
 
 
-def build_problem(cfg, extensions=None, h_spec: dict | None = None) -> Problem:
+def build_problem(cfg, extensions=None, h_spec: dict | None = None, *,
+                  input_noise=None) -> Problem:
     """Build the :class:`Problem` of a loaded case config.
 
     Parameters
@@ -34,6 +43,12 @@ def build_problem(cfg, extensions=None, h_spec: dict | None = None) -> Problem:
     cfg : a :class:`~pavement_mcmc.data.CaseConfig`.
     extensions : override the config's extension list (names, classes or instances).
     h_spec : override the config's h(t) discretisation (e.g. ``{"kind": "uniform", "n": 12}``).
+    input_noise : only used when the case integrates its inputs' noise out (``[data]
+        input_sigma`` ...): None (default) linearises at the MAP with exact inputs (a new fit;
+        costs a least-squares fit); a dict of parameter values by name linearises there (a
+        stored run's ``input_ref``: no optimisation); an
+        :class:`~pavement_mcmc.posterior.input_noise.InputNoise` is used as is (a candidate
+        model scored against a base model shares the base's data covariance).
     """
     meas = cfg.measurements
     model_cfg = cfg.model
@@ -48,9 +63,19 @@ def build_problem(cfg, extensions=None, h_spec: dict | None = None) -> Problem:
     space = model.parameter_space().configure(_known(cfg.parameters, model))
     posterior = LogPosterior(model, space)
     sigmas = input_sigmas(cfg.data, meas)
+    ref = None
     if any(np.any(v > 0) for v in sigmas.values()):
-        attach_input_noise(posterior, sigmas)
-    return Problem(cfg, model, space, posterior)
+        if isinstance(input_noise, InputNoise):
+            posterior.input_noise = input_noise
+        else:
+            theta = None if input_noise is None else _theta_at(space, input_noise)
+            ref = attach_input_noise(posterior, sigmas, theta)
+    return Problem(cfg, model, space, posterior, ref)
+
+
+def _theta_at(space: ParameterSpace, values: dict) -> np.ndarray:
+    """Free-parameter vector from values by name (missing names: the parameter's value)."""
+    return np.array([float(values.get(n, space[n].value)) for n in space.free])
 
 
 #: [data] keys of the input noise sds -> the input kinds they cover
@@ -71,26 +96,26 @@ def input_sigmas(data: dict, meas=None) -> dict:
 
 
 def attach_input_noise(posterior: LogPosterior, sigmas: dict[str, float] | float,
-                       theta_ref=None) -> None:
+                       theta_ref=None) -> dict[str, float] | None:
     """Integrate the noise of the model's inputs out of ``posterior``'s likelihood
     (:mod:`pavement_mcmc.posterior.input_noise`). ``sigmas``: sd per input kind, a number or one per
     column of that kind (a single number: the bottom and initial temperatures). Linearised at
     ``theta_ref`` (default: the MAP with exact inputs, deterministic, so a resumed run gets the
-    same likelihood)."""
-    from .input_noise import InputNoise, input_jacobian
-    from .map import find_map
+    same likelihood). Returns the linearisation point by name (None if no input is noisy)."""
 
     if not isinstance(sigmas, dict):
         sigmas = {"bottom": float(sigmas), "initial": float(sigmas)}
     sigmas = {k: v for k, v in sigmas.items() if np.any(np.asarray(v) > 0)}
     posterior.input_noise = None
     if not sigmas:
-        return
+        return None
     if theta_ref is None:
         theta_ref = find_map(posterior).theta
-    p = posterior.space.expand(np.atleast_2d(np.asarray(theta_ref, float)))
+    theta_ref = np.asarray(theta_ref, float)
+    p = posterior.space.expand(np.atleast_2d(theta_ref))
     U = input_jacobian(posterior.model, p, kinds=tuple(sigmas))
     posterior.input_noise = InputNoise.from_jacobian(U, posterior.sigma, sigmas)
+    return {n: float(v) for n, v in zip(posterior.space.free, theta_ref, strict=True)}
 
 
 def _known(section: dict, model: Model) -> dict:

@@ -14,7 +14,7 @@ def criticism_section(problem, view):
     from ..plotting.criticism import plot_residual_correlations, plot_residual_map
 
     mean = view.flat.mean(axis=0)
-    values = {k: float(v[0]) for k, v in problem.space.values().items()}
+    values = problem.space.value_dict()
     values.update({n: float(v) for n, v in zip(view.names, mean, strict=True)})
     rep = analyse_point(problem, values)
     pats = plain_signals(rep)

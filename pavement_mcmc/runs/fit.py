@@ -21,7 +21,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..data import load_case, merge_overrides
+from ..data import ConfigError, load_case, merge_overrides
 from ..posterior import Problem, build_problem, find_map
 from ..samplers import get_sampler
 from ..storage import HDF5Store, read_run
@@ -40,17 +40,15 @@ class FitOutput:
     problem: Problem
 
 
-def _sampler_for(problem: Problem, scfg: dict, laplace=None):
-    kind = scfg["kind"]
-    opts = {}
-    if scfg.get("proposal_scale") is not None:
-        opts["proposal_scale"] = float(scfg["proposal_scale"])
-    if scfg.get("move") is not None:
-        opts["move"] = str(scfg["move"])
-    if laplace is not None:
-        opts["laplace"] = laplace
-    return get_sampler(kind, problem.posterior, n_chains=scfg.get("n_walkers"),
-                       seed=scfg.get("seed"), **opts)
+def _sampler_for(problem: Problem, cfg):
+    """The case's sampler with its typed ``[sampler.options]``; a bad option is a config error
+    naming the case file."""
+    scfg = cfg.sampler
+    try:
+        return get_sampler(scfg["kind"], problem.posterior, n_chains=scfg.get("n_walkers"),
+                           seed=scfg.get("seed"), options=scfg.get("options") or None)
+    except ValueError as err:
+        raise ConfigError(f"{cfg.path}: {err}") from None
 
 
 def _run(problem, sampler, store, scfg, progress, callback, max_seconds) -> RunResult:
@@ -115,17 +113,19 @@ def fit(
         raise FileExistsError(f"{out} already holds a run; pass --overwrite to replace it or "
                               f"'pavement-mcmc resume {out}' to continue it")
     problem = build_problem(cfg)
-    smp = _sampler_for(problem, scfg)
+    smp = _sampler_for(problem, cfg)
+    laplace = None
     if smp.needs_laplace():
-        smp.options["laplace"] = find_map(problem.posterior)
-        smp.n_prep_evals += smp.options["laplace"].n_evals
-    smp.prepare()
+        laplace = find_map(problem.posterior)
+        smp.n_prep_evals += laplace.n_evals
+    smp.prepare(laplace=laplace)
     out.mkdir(parents=True, exist_ok=True)
     write_case_record(cfg, out, ov, adds)
     for stale in ("result.json", "summary.csv", "summary.md"):
         (out / stale).unlink(missing_ok=True)
+    meta = {**store_meta(cfg, scfg["kind"]), "input_ref": problem.input_ref}
     store = HDF5Store.create(h5, problem.space.free, problem.posterior.blob_names, smp.n_chains,
-                             store_meta(cfg, scfg["kind"]), overwrite=True)
+                             meta, overwrite=True)
     with store:
         res = _run(problem, smp, store, scfg, progress, callback, None)
     return _finish(out, problem, res)
@@ -145,15 +145,15 @@ def resume(run_dir: str | Path, *, max_seconds: float | None = None, progress: b
     orig = Path(rec["toml_path"])
     src = orig if orig.exists() else run_dir / "case.toml"
     cfg = load_case(src, rec.get("overrides") or None, additions=rec.get("additions") or None)
-    problem = build_problem(cfg)
     scfg = cfg.sampler
     store = HDF5Store.open_append(run_dir / "chain.h5")
     with store:
         store.check_compatible(store_meta(cfg, scfg["kind"]))
+        problem = build_problem(cfg, input_noise=store.meta.get("input_ref"))
         state = store.state
         if state is None:
             raise ValueError(f"{run_dir}: the run has no saved block to resume from; fit it again")
-        smp = _sampler_for(problem, scfg)
+        smp = _sampler_for(problem, cfg)
         smp.set_state(state)
         res = _run(problem, smp, store, scfg, progress, callback, max_seconds)
     return _finish(run_dir, problem, res)

@@ -15,7 +15,8 @@ from ..storage import RunData, read_run
 def load_run(run_dir: str | Path) -> tuple[Problem, RunData]:
     """Rebuild a stored run's :class:`~pavement_mcmc.posterior.Problem` and read its chain.
 
-    Stable helper for report / diagnose / plots (they must never re-run a sampler).
+    Stable helper for report / diagnose / plots (they must never re-run a sampler). Nothing is
+    optimised: with noisy inputs the likelihood is linearised at the point stored with the run.
 
     Returns
     -------
@@ -26,8 +27,8 @@ def load_run(run_dir: str | Path) -> tuple[Problem, RunData]:
     """
     run_dir = Path(run_dir)
     cfg = load_case(run_dir / "case.toml")
-    problem = build_problem(cfg)
     data = read_run(run_dir / "chain.h5")
+    problem = build_problem(cfg, input_noise=data.meta.get("input_ref"))
     result = {}
     if (run_dir / "result.json").exists():
         result = json.loads((run_dir / "result.json").read_text())
@@ -55,6 +56,6 @@ def point_estimate(run_dir: str | Path, statistic: str = "mean") -> tuple[object
         burn = chain.shape[0] // 2
     flat = chain[burn:].reshape(-1, chain.shape[2])
     est = np.median(flat, axis=0) if statistic == "median" else flat.mean(axis=0)
-    vals = {k: float(v[0]) for k, v in problem.space.values().items()}
+    vals = problem.space.value_dict()
     vals.update({n: float(v) for n, v in zip(run.param_names, est, strict=True)})
     return problem, vals

@@ -10,10 +10,17 @@ bit-for-bit the run that was never interrupted.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import ClassVar
 
 import numpy as np
 
+from .options import options_from
 from .state import RunState
+
+
+@dataclass(frozen=True)
+class NoOptions:
+    """A sampler without options."""
 
 
 @dataclass
@@ -51,19 +58,24 @@ class Sampler:
         ``theta (n, d) -> (logp (n,), blobs (n, s))`` with ``.space`` and ``.ndim``).
     n_chains : number of chains / walkers stepped together (None: the sampler's default).
     seed : seed of the run's :class:`numpy.random.Generator`.
-    options : sampler-specific keyword options (documented by each subclass).
+    options : the sampler's typed options: an instance of its :attr:`Options` dataclass or a
+        mapping of them (a case's ``[sampler.options]``); an unknown key is refused with the
+        valid ones listed.
     """
 
     name = "base"
     #: True if the sampler adapts its proposal during burn-in (then frozen)
     adaptive = False
+    #: the frozen dataclass of the sampler's options
+    Options: ClassVar[type] = NoOptions
 
-    def __init__(self, posterior, n_chains: int | None = None, seed: int | None = None, **options):
+    def __init__(self, posterior, n_chains: int | None = None, seed: int | None = None,
+                 options=None):
         self.posterior = posterior
         self.ndim = int(posterior.ndim)
+        self.options = options_from(self.Options, options, f"[sampler.options] of sampler {self.name!r}")
         self.n_chains = int(n_chains or self.default_chains(self.ndim))
         self.rng = np.random.default_rng(seed)
-        self.options = options
         self.n_prep_evals = 0
         self.theta: np.ndarray | None = None
         self.logp: np.ndarray | None = None
@@ -75,11 +87,15 @@ class Sampler:
         return 32
 
     def needs_laplace(self) -> bool:
-        """Whether ``prepare`` uses a MAP/Laplace approximation passed as ``options["laplace"]``."""
+        """Whether :meth:`prepare` uses a MAP/Laplace approximation (passed as ``laplace``)."""
         return True
 
-    def prepare(self, theta0: np.ndarray | None = None) -> None:
-        """Choose initial positions (and whatever the proposal needs); evaluate them."""
+    def prepare(self, theta0: np.ndarray | None = None, laplace=None) -> None:
+        """Choose initial positions (and whatever the proposal needs); evaluate them.
+
+        ``laplace``: a :class:`~pavement_mcmc.posterior.Laplace` of the posterior (the run
+        computes it once when :meth:`needs_laplace`), else the sampler starts without it.
+        """
         raise NotImplementedError
 
     def step(self, n_steps: int, adapt: bool = False) -> Block:

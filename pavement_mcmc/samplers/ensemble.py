@@ -10,22 +10,52 @@ burn-in is chosen afterwards from the log-posterior trace.
 
 from __future__ import annotations
 
+from dataclasses import dataclass, field
+from typing import Any
+
 import emcee
 import numpy as np
 
 from .base import Block, Sampler, start_points
 
+#: emcee moves by name, for case files (``[sampler.options] moves = "de"``)
+EMCEE_MOVES = {"stretch": emcee.moves.StretchMove, "walk": emcee.moves.WalkMove,
+               "de": emcee.moves.DEMove, "desnooker": emcee.moves.DESnookerMove,
+               "kde": emcee.moves.KDEMove}
 
-class EmceeSampler(Sampler):
-    """emcee ``EnsembleSampler`` (stretch move by default).
 
-    Options
-    -------
-    moves : emcee moves (default: ``emcee.moves.StretchMove()``).
-    laplace : a :class:`~pavement_mcmc.posterior.map.Laplace` for the start points.
+@dataclass(frozen=True)
+class EmceeOptions:
+    """Options of the ``emcee`` sampler.
+
+    moves : emcee moves as emcee takes them (a move, or a list of ``(move, weight)``), or by
+        name: ``"stretch"`` (default), ``"walk"``, ``"de"``, ``"desnooker"``, ``"kde"``, or a
+        list of ``[name, weight]`` pairs.
     """
 
+    moves: Any = field(default=None)
+
+    def emcee_moves(self):
+        def one(m):
+            if isinstance(m, str):
+                if m not in EMCEE_MOVES:
+                    raise ValueError(f"[sampler.options] moves: unknown emcee move {m!r}; "
+                                     f"valid: {', '.join(EMCEE_MOVES)}")
+                return EMCEE_MOVES[m]()
+            return m
+
+        mv = self.moves
+        if isinstance(mv, list | tuple):
+            return [(one(m[0]), float(m[1])) if isinstance(m, list | tuple) else one(m) for m in mv]
+        return None if mv is None else one(mv)
+
+
+class EmceeSampler(Sampler):
+    """emcee ``EnsembleSampler`` (stretch move by default); the Laplace approximation, when
+    given to :meth:`prepare`, sets the start points."""
+
     name = "emcee"
+    Options = EmceeOptions
 
     @staticmethod
     def default_chains(ndim: int) -> int:
@@ -40,10 +70,10 @@ class EmceeSampler(Sampler):
             return np.column_stack([lp, bl])
 
         self._emcee = emcee.EnsembleSampler(self.n_chains, self.ndim, fn, vectorize=True,
-                                            moves=self.options.get("moves"))
+                                            moves=self.options.emcee_moves())
 
-    def prepare(self, theta0=None) -> None:
-        self.theta, _ = start_points(self, theta0, self.options.get("laplace"))
+    def prepare(self, theta0=None, laplace=None) -> None:
+        self.theta, _ = start_points(self, theta0, laplace)
         self.logp, self.blobs = self.evaluate(self.theta)
         self.n_prep_evals += self.n_chains
         self._make()

@@ -35,13 +35,14 @@ without an adjoint).
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
 from ..posterior.map import find_map
 from ..posterior.marginal import gmrf_of
 from .base import Block, Sampler, start_points
-from .gamma import GammaGibbsMixin
-from .marginal_rw import MarginalRWMixin
+from .target import MarginalTarget, cholesky_of
 
 #: dual-averaging constants (Hoffman & Gelman 2014, section 3.2)
 _DA_GAMMA, _DA_T0, _DA_KAPPA = 0.05, 10.0, 0.75
@@ -52,23 +53,33 @@ _SCALARS = ("log_eps", "log_eps_bar", "hbar", "mu", "k_adapt", "k_da", "n_leapfr
 _ARRAYS = ("idx", "hcols", "hpos", "L", "f", "g", "loglik", "win_1", "win_2")
 
 
-class HMCSampler(MarginalRWMixin, GammaGibbsMixin, Sampler):
-    """Reflective HMC with a Laplace metric (see the module docstring).
+@dataclass(frozen=True)
+class HMCOptions:
+    """Options of the ``hmc`` sampler.
 
-    Options
-    -------
-    target_acceptance : float, default 0.8.
-    trajectory_length : float, default 1.5 (whitened units; ~pi/2 is a half period of a
-        Gaussian with exactly the metric's covariance).
-    max_leapfrog : int, default 64.
+    target_acceptance : acceptance rate the dual averaging tunes ``eps`` towards.
+    trajectory_length : in whitened units (~pi/2 is a half period of a Gaussian with exactly
+        the metric's covariance).
+    max_leapfrog : most leapfrog steps per trajectory.
     step_size : initial ``eps`` (default ``0.5 d^-1/4``).
-    adapt_metric : bool, default True.
-    laplace : a precomputed :class:`~pavement_mcmc.posterior.map.Laplace` (cases without gamma).
-    marginal_map : a precomputed marginal MAP (cases with gamma).
+    adapt_metric : re-estimate the metric once from the pooled adaptation draws.
+    metric_at : the adaptation step at which it is re-estimated.
     """
+
+    target_acceptance: float = 0.8
+    trajectory_length: float = 1.5
+    max_leapfrog: int = 64
+    step_size: float | None = None
+    adapt_metric: bool = True
+    metric_at: int = 75
+
+
+class HMCSampler(Sampler):
+    """Reflective HMC with a Laplace metric (see the module docstring)."""
 
     name = "hmc"
     adaptive = True
+    Options = HMCOptions
 
     @staticmethod
     def default_chains(ndim: int) -> int:
@@ -78,14 +89,18 @@ class HMCSampler(MarginalRWMixin, GammaGibbsMixin, Sampler):
         return gmrf_of(self.posterior.space) is None
 
     # -- preparation -------------------------------------------------------------------------
-    def prepare(self, theta0=None) -> None:
+    def prepare(self, theta0=None, laplace=None) -> None:
         space = self.posterior.space
         self.marginal = gmrf_of(space) is not None
-        if self.marginal:
-            self._prepare_marginal(theta0)  # MAP, Laplace covariance, start points, gamma draw
-            cov = self.prop_cov
+        if self.marginal:  # marginal MAP, Laplace covariance, start points, gamma draw
+            tg = self.target = MarginalTarget(self.posterior, theta0=theta0)
+            self.n_prep_evals += tg.n_evals
+            cov = np.array(tg.mmap.cov)
+            self.theta = tg.start_points(self.rng, self.n_chains, cholesky_of(cov))
+            self.idx, self.hcols, self.gi = tg.idx, tg.hcols, tg.gi
+            self.lo, self.hi = tg.lo, tg.hi
         else:
-            lap = self.options.get("laplace")
+            lap = laplace
             if lap is None:
                 lap = find_map(self.posterior, theta0)
                 self.n_prep_evals += lap.n_evals
@@ -98,7 +113,7 @@ class HMCSampler(MarginalRWMixin, GammaGibbsMixin, Sampler):
         self.hpos = np.array([pos[int(c)] for c in self.hcols], dtype=int)
         self._set_metric(cov)
         d = self.idx.size
-        eps0 = float(self.options.get("step_size") or 0.5 * d**-0.25)
+        eps0 = float(self.options.step_size or 0.5 * d**-0.25)
         self.log_eps = self.log_eps_bar = float(np.log(eps0))
         self.mu = float(np.log(10.0 * eps0))
         self.hbar, self.k_adapt, self.k_da, self.frozen, self.metric_done = 0.0, 0, 0, False, False
@@ -109,14 +124,11 @@ class HMCSampler(MarginalRWMixin, GammaGibbsMixin, Sampler):
         self.logp = self._joint_logp(self.theta)
 
     def _set_metric(self, cov: np.ndarray) -> None:
-        cov = 0.5 * (cov + cov.T)
-        sd = np.sqrt(np.diag(cov))
-        corr = cov / np.outer(sd, sd)
-        self.L = np.linalg.cholesky(corr + 1e-10 * np.eye(sd.size)) * sd[:, None]
+        self.L = cholesky_of(0.5 * (cov + cov.T))
 
     def _n_leapfrog(self, eps: float) -> int:
-        traj = float(self.options.get("trajectory_length", 1.5))
-        return int(np.clip(np.ceil(traj / eps), 1, int(self.options.get("max_leapfrog", 64))))
+        traj = self.options.trajectory_length
+        return int(np.clip(np.ceil(traj / eps), 1, self.options.max_leapfrog))
 
     # -- the target --------------------------------------------------------------------------
     def _full(self, X: np.ndarray) -> np.ndarray:
@@ -132,7 +144,7 @@ class HMCSampler(MarginalRWMixin, GammaGibbsMixin, Sampler):
             ll, gll, bl = self.posterior.loglik_and_grad(theta)
         if self.marginal:
             gp = np.zeros_like(theta)
-            for i, prior in self.uni:  # the non-flat univariate priors
+            for i, prior in self.target.uni:  # the non-flat univariate priors
                 gp[:, i] = prior.grad_logpdf(theta[:, i])
         else:
             gp = space.grad_log_prior(theta)
@@ -141,11 +153,11 @@ class HMCSampler(MarginalRWMixin, GammaGibbsMixin, Sampler):
             h = theta[:, self.hcols]
             dh = np.diff(h, axis=1)
             S = np.sum(dh * dh, axis=1)
-            f = ll + self._uni_logp(theta) + self.tab.log_f(S)
+            f = ll + self.target.uni_logp(theta) + self.target.tab.log_f(S)
             DtDh = np.zeros_like(h)
             DtDh[:, :-1] -= dh
             DtDh[:, 1:] += dh
-            g[:, self.hpos] -= self.tab.mean_gamma(S)[:, None] * DtDh
+            g[:, self.hpos] -= self.target.tab.mean_gamma(S)[:, None] * DtDh
         else:
             f = ll + space.log_prior(theta)
         bad = ~(np.isfinite(f) & np.all(np.isfinite(g), axis=1))
@@ -155,7 +167,7 @@ class HMCSampler(MarginalRWMixin, GammaGibbsMixin, Sampler):
 
     def _joint_logp(self, theta: np.ndarray) -> np.ndarray:
         if self.marginal:
-            return self.loglik + self._joint_log_prior(theta, self._uni_logp(theta))
+            return self.loglik + self.target.joint_log_prior(theta, self.target.uni_logp(theta))
         return self.f
 
     # -- dynamics ----------------------------------------------------------------------------
@@ -220,7 +232,7 @@ class HMCSampler(MarginalRWMixin, GammaGibbsMixin, Sampler):
             self.loglik = np.where(acc, ll, self.loglik)
             self.blobs = np.where(acc[:, None], bl, self.blobs)
             if self.marginal:
-                self.theta[:, self.gi] = self._draw_gamma(self.theta)
+                self.theta[:, self.gi] = self.target.draw_gamma(self.rng, self.theta)
             self.logp = self._joint_logp(self.theta)
             if adapt:
                 self._adapt(float(np.mean(np.exp(np.minimum(log_a, 0.0)))))
@@ -235,19 +247,19 @@ class HMCSampler(MarginalRWMixin, GammaGibbsMixin, Sampler):
         self.k_adapt += 1
         self.k_da += 1
         k = self.k_da
-        delta = float(self.options.get("target_acceptance", 0.8))
+        delta = self.options.target_acceptance
         eta = 1.0 / (k + _DA_T0)
         self.hbar = (1.0 - eta) * self.hbar + eta * (delta - accept_prob)
         self.log_eps = self.mu - np.sqrt(k) / _DA_GAMMA * self.hbar
         w = k**-_DA_KAPPA
         self.log_eps_bar = w * self.log_eps + (1.0 - w) * self.log_eps_bar
-        if bool(self.options.get("adapt_metric", True)) and not self.metric_done:
+        if self.options.adapt_metric and not self.metric_done:
             if self.k_adapt > _METRIC_SKIP:
                 x = self.theta[:, self.idx]
                 self.win_n += x.shape[0]
                 self.win_1 += x.sum(axis=0)
                 self.win_2 += x.T @ x
-            if self.k_adapt >= int(self.options.get("metric_at", 75)):
+            if self.k_adapt >= self.options.metric_at:
                 self._metric_from_window()
         self.n_leapfrog = self._n_leapfrog(float(np.exp(self.log_eps)))
 
@@ -292,5 +304,4 @@ class HMCSampler(MarginalRWMixin, GammaGibbsMixin, Sampler):
             setattr(self, k, getattr(self, k).astype(int))
         self.lo, self.hi = self.posterior.space.bounds()
         if self.marginal:
-            self.tab = self._table()
-            self._prior_terms()
+            self.target = MarginalTarget.restored(self.posterior, self.idx, self.hcols, self.gi)

@@ -15,39 +15,47 @@ is a valid (non-adaptive) MH chain. Randomness: one :class:`numpy.random.Generat
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
 from .base import Block, Sampler, start_points
 
 
-class MHSampler(Sampler):
-    """Random-walk MH with uniform steps (paper parity).
+@dataclass(frozen=True)
+class MHOptions:
+    """Options of the ``mh`` sampler.
 
-    Options
-    -------
-    target_acceptance : float, default 0.25.
-    proposal_scale : float, initial global factor ``s`` (default 1).
-    laplace : a :class:`~pavement_mcmc.posterior.map.Laplace` used for the step sizes and start points.
+    target_acceptance : acceptance rate the burn-in tunes ``s`` towards.
+    proposal_scale : initial global factor ``s`` (default 1).
     """
+
+    target_acceptance: float = 0.25
+    proposal_scale: float | None = None
+
+
+class MHSampler(Sampler):
+    """Random-walk MH with uniform steps (paper parity); the Laplace sds, when given to
+    :meth:`prepare`, set the step sizes and start points."""
 
     name = "mh"
     adaptive = True
+    Options = MHOptions
 
     @staticmethod
     def default_chains(ndim: int) -> int:
         return 32
 
-    def prepare(self, theta0=None) -> None:
-        lap = self.options.get("laplace")
-        self.theta, sd = start_points(self, theta0, lap)
+    def prepare(self, theta0=None, laplace=None) -> None:
+        self.theta, sd = start_points(self, theta0, laplace)
         self.logp, self.blobs = self.evaluate(self.theta)
         self.n_prep_evals += self.n_chains
         self.omega = np.sqrt(3.0) * 2.38 / np.sqrt(self.ndim) * sd
-        self.log_s = float(np.log(self.options.get("proposal_scale") or 1.0))
+        self.log_s = float(np.log(self.options.proposal_scale or 1.0))
         self.k_adapt = 0
 
     def step(self, n_steps: int, adapt: bool = False) -> Block:
-        target = float(self.options.get("target_acceptance", 0.25))
+        target = self.options.target_acceptance
         rows = []
         m, d = self.theta.shape
         for _ in range(n_steps):
