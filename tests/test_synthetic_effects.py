@@ -116,14 +116,15 @@ def test_shading_cools_only_in_and_after_the_shaded_hours(base, runs):
     columns, truth = runs["shading"]
     _, hod = _hours(truth)
     d = truth.T_clean[:, 0] - truth0.T_clean[:, 0]
-    inside = (hod >= 13.5) & (hod < 16.5)
+    inside = (hod >= 13.5) & (hod <= 16.5)  # half-shaded at the edges (10 min ramps)
     assert d[inside].mean() < -4.0  # measured -8.6 degC
     assert 13.5 <= hod[np.argmin(d)] <= 16.75
     # outside 13.5-18.5 h only yesterday's shade is left: < 20 % of the peak cooling (measured 11 %)
     assert np.abs(d[~((hod >= 13.5) & (hod < 18.5))]).max() < 0.2 * np.abs(d).max()
     # the radiometer is in the sun: recorded q_net = what the ground absorbs, except in the shade
     np.testing.assert_allclose(truth.q_ground[~inside], columns["q_net"][~inside], rtol=1e-12)
-    assert (truth.q_ground - columns["q_net"])[inside].max() < -100.0
+    full = (hod > 13.5) & (hod < 16.5)
+    assert (truth.q_ground - columns["q_net"])[full].max() < -200.0  # 0.6 x short-wave: 245-400
 
 
 def test_sensor_lag_delays_one_sensor(base, runs):

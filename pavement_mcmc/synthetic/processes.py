@@ -53,19 +53,35 @@ def priestley_taylor_factor(T_air: np.ndarray, alpha: float) -> np.ndarray:
     return alpha * s / (s + PSYCHROMETRIC)
 
 
-def shade_multiplier(t: np.ndarray, start_hour: float, shade_start: float, shade_end: float, fraction: float):
+SHADE_EDGE_MINUTES = 10.0
+"""Time a shadow edge takes to cross the plot: the shade ramps in and out linearly over this
+time, centred on the given clock hours (a step would make a row at the edge sample the
+sqrt(t) start of the surface's response, so its value would depend on the time step)."""
+
+
+def shade_multiplier(
+    t: np.ndarray, start_hour: float, shade_start: float, shade_end: float, fraction: float
+) -> np.ndarray:
     """Factor on the absorbed short-wave: ``1 - fraction`` while the clock hour is in
-    ``[shade_start, shade_end)``, else 1.
+    ``[shade_start, shade_end]``, else 1, with linear ramps of :data:`SHADE_EDGE_MINUTES`
+    centred on both hours.
 
     Parameters
     ----------
     t : times, s from the window start.
     start_hour : clock hour of day at ``t == 0``.
-    shade_start, shade_end : clock hours bounding the daily shadow.
+    shade_start, shade_end : clock hours bounding the daily shadow (0 <= start < end <= 24).
     fraction : fraction of the short-wave the shadow removes.
     """
     hod = np.mod(np.asarray(t, float) / HOUR + start_hour, 24.0)
-    return np.where((hod >= shade_start) & (hod < shade_end), 1.0 - fraction, 1.0)
+    half = 0.5 * SHADE_EDGE_MINUTES / 60.0
+    shade = np.zeros_like(hod)
+    for day in (-24.0, 0.0, 24.0):  # a shadow reaching past midnight on either side
+        a, b = shade_start + day, shade_end + day
+        rise = np.clip((hod - (a - half)) / (2 * half), 0.0, 1.0)
+        fall = np.clip(((b + half) - hod) / (2 * half), 0.0, 1.0)
+        shade = np.maximum(shade, np.minimum(rise, fall))
+    return 1.0 - fraction * shade
 
 
 def first_order_lag(t: np.ndarray, x: np.ndarray, tau: float) -> np.ndarray:
