@@ -1,27 +1,51 @@
 """Independent twin-data generator (never the inversion's solver: no inverse crime).
 
-A deep (30 cm) ground column on a fine finite-volume grid (0.25 mm cells around the sensors),
-driven by a synthetic summer weather generator through a full surface energy balance, with a
-48 h spin-up; the 5 cm "bottom" temperature is itself an output. Hidden effects (two-layer
+A deep ground column on a fine finite-volume grid (0.25 mm cells around the sensors of the
+paper's 0-5 cm geometry, 1 mm for deeper field geometries), driven by a synthetic weather
+generator (summer over asphalt, or spring over grass) through a full surface energy balance,
+with a 48 h spin-up; the bottom temperature is itself an output. Hidden effects (two-layer
 ground, sensor depth errors and biases, wind-driven convection, evaporation after rain,
-temperature-dependent conductivity, a radiation factor) can be switched on with realistic
-default strengths, see :mod:`pavement_mcmc.synthetic.effects`.
+temperature-dependent conductivity, a radiation factor; a thatch layer and
+evapotranspiration; and the off-catalogue sensor lag, shading and buried heat source) can be
+switched on with realistic default strengths, see :mod:`pavement_mcmc.synthetic.effects`.
+Heat-flux plates (``flux_depths_cm``) add ``G_<d>cm`` columns. Named, reproducible twins with
+the inversion settings to use on them are in :mod:`pavement_mcmc.synthetic.corpus`.
 
 >>> columns, truth = simulate(SyntheticSpec(seed=1, effects={"two_layer": {}}))
 >>> meas = to_measurements(columns, sigma=truth.sigma)
 """
 
-from .effects import DEFAULT_RAIN, EFFECTS, default_effect
+from .effects import (
+    ALL_EFFECTS,
+    DEFAULT_RAIN,
+    EFFECTS,
+    NEW_CATALOGUE_EFFECTS,
+    OFF_CATALOGUE_EFFECTS,
+    default_effect,
+)
 from .io import to_measurements, truth_record, write_case
-from .simulate import PAPER_H_KNOTS, SyntheticSpec, Truth, simulate, temperature_columns
+from .simulate import (
+    PAPER_H_KNOTS,
+    SyntheticSpec,
+    Truth,
+    flux_columns,
+    resolved_grid,
+    simulate,
+    temperature_columns,
+)
 
 __all__ = [
+    "ALL_EFFECTS",
     "DEFAULT_RAIN",
     "EFFECTS",
+    "NEW_CATALOGUE_EFFECTS",
+    "OFF_CATALOGUE_EFFECTS",
     "PAPER_H_KNOTS",
     "SyntheticSpec",
     "Truth",
     "default_effect",
+    "flux_columns",
+    "resolved_grid",
     "simulate",
     "temperature_columns",
     "to_measurements",

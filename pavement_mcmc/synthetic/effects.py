@@ -1,8 +1,20 @@
 """The hidden effects a twin dataset can carry, their parameters and realistic default strengths.
 
-Parameter names, units and meanings are those of the inversion's extension catalogue
-(:mod:`pavement_mcmc.physics.catalogue`), so a fit can be compared with ``Truth.effects``
-directly. ``<s>`` is a sensor label such as ``0cm`` (``Measurements.sensor_labels``).
+Three groups (all selected the same way, by name in ``SyntheticSpec.effects``):
+
+- :data:`EFFECTS`: the seven the inversion's extension catalogue
+  (:mod:`pavement_mcmc.physics.catalogue`) models today, with its parameter names, units and
+  meanings, so a fit can be compared with ``Truth.effects`` directly.
+- :data:`NEW_CATALOGUE_EFFECTS`: ``surface_layer`` and ``evapotranspiration``, planned catalogue
+  entries. The simulator's physics differs from the planned extension on purpose (no inverse
+  crime): a real thatch layer with heat capacity where the extension has a pure resistance
+  ``R_surface``, and Priestley-Taylor on R_n - G where the extension uses ``max(q_net, 0)``.
+  The parameters the extension will share (``R_surface``, ``et_alpha``) are recorded.
+- :data:`OFF_CATALOGUE_EFFECTS`: ``sensor_lag``, ``shading``, ``buried_source``, which no
+  extension models: the diagnosis should answer "none of these".
+
+``<s>`` is a sensor label such as ``0cm`` (``Measurements.sensor_labels``). Depths are measured
+from the soil surface (below a ``surface_layer``, if any).
 
 ==========================  ===============================================================
 effect                      parameters (units) and default ("realistic") strength
@@ -25,7 +37,42 @@ conductivity_temperature    ``kappa_beta`` (1/K): kappa(T) = kappa (1 + kappa_be
                             in every layer. Default: -0.005.
 radiation_factor            ``rad_factor`` (-): the ground absorbs rad_factor x (recorded q_net).
                             Default: 0.85.
+surface_layer               ``layer_thickness`` (m), ``layer_kappa`` (W m-1 K-1), ``layer_C``
+                            (J m-3 K-1): thatch / grass / mulch above the soil; the surface
+                            energy balance acts on its top, every sensor and plate sits
+                            layer_thickness deeper in the column than its nominal (soil) depth.
+                            Recorded, derived: ``R_surface`` = thickness / layer_kappa
+                            (m2 K W-1). Default: 0.015, 0.06, 0.3e6 (R_surface 0.25).
+evapotranspiration          ``et_alpha`` (-): latent heat leaving the surface,
+                            LE = et_alpha s/(s + gamma) max(R_n - G, 0), s the slope of the
+                            saturation vapour pressure (Tetens) at T_air, gamma = 0.066 kPa/K,
+                            R_n = absorbed SW + LW_down - emitted LW, G the conductive flux into
+                            the ground (lagged one solver step). Default: 1.0. The series is
+                            recorded in ``Truth.q_et``.
+sensor_lag                  ``lag_sensor_cm`` (cm, nominal depth of one observed sensor),
+                            ``lag_minutes`` (min): that sensor reads a first-order lag of its
+                            true temperature (poor thermal contact). Default: the middle
+                            observed sensor, 60.
+shading                     ``shade_fraction`` (-), ``shade_start``, ``shade_end`` (clock hours
+                            of the spec's time0 clock): a shadow removes this fraction of the
+                            absorbed short-wave every day between the two hours, with 10 min
+                            linear edges centred on them (the recorded q_net, from a
+                            radiometer in the sun, does not see it).
+                            Default: 0.6, 13.5, 16.5 (edges off the whole hours: on them,
+                            1 h pieces of h(t) absorb most of the shadow).
+buried_source               ``source_flux`` (W m-2, > 0 heats), ``source_depth`` (m): a steady
+                            heat source concentrated at that depth (a warm pipe, a heating
+                            cable on low power). Default: 50, halfway between the second and
+                            third observed sensor (between the last two sensors, bottom
+                            included, if there are fewer); 15 W m-2 is mostly absorbed by
+                            kappa in a fit of the 0-5 cm geometry.
 ==========================  ===============================================================
+
+Default strengths of the off-catalogue effects were chosen with MAP refits of the base model
+(1 h pieces of h(t), kappa / C priors +-5 % centred 3 % off, sigma 0.2 degC, the corpus'
+settings; seeds 21-23): refit RMSE 0.23 degC without an effect; sensor_lag 1.26-1.28
+(lag-1 autocorrelation 0.9); shading 0.64-0.68 (0.27-0.28 with edges at 13 and 17 h);
+buried_source 0.28-0.30 (0.23-0.24 at 15 W m-2).
 """
 
 from __future__ import annotations
@@ -43,7 +90,16 @@ EFFECTS = (
     "conductivity_temperature",
     "radiation_factor",
 )
-"""Names of the hidden effects a twin dataset can carry."""
+"""Names of the hidden effects the inversion's catalogue models today."""
+
+NEW_CATALOGUE_EFFECTS = ("surface_layer", "evapotranspiration")
+"""Effects with planned catalogue entries (the simulator uses different physics)."""
+
+OFF_CATALOGUE_EFFECTS = ("sensor_lag", "shading", "buried_source")
+"""Effects no catalogue entry models: a diagnosis should name none of its candidates."""
+
+ALL_EFFECTS = EFFECTS + NEW_CATALOGUE_EFFECTS + OFF_CATALOGUE_EFFECTS
+"""Every hidden effect the simulator can carry, in the order ``Truth.effects`` lists them."""
 
 DEFAULT_RAIN = ((9.0, 1.0, 4.0),)
 """Shower used when ``evaporation`` is on and no rain is given: (start h, duration h, mm)."""
@@ -67,15 +123,18 @@ def sensor_labels(depths_cm) -> list[str]:
     return [f"{d:g}cm" for d in depths_cm]
 
 
-def default_effect(name: str, kappa: float, C: float, depths_cm=(0, 1, 2, 3, 4)) -> dict:
+def default_effect(
+    name: str, kappa: float, C: float, depths_cm=(0, 1, 2, 3, 4), bottom_cm: float = 5.0
+) -> dict:
     """Realistic-strength parameters of one effect.
 
     Parameters
     ----------
-    name : one of :data:`EFFECTS`.
+    name : one of :data:`ALL_EFFECTS`.
     kappa : conductivity of the (top) ground, W m-1 K-1.
     C : volumetric heat capacity of the (top) ground, J m-3 K-1.
     depths_cm : nominal depths of the observed sensors, cm (for per-sensor parameters).
+    bottom_cm : nominal depth of the bottom sensor, cm (for ``buried_source``).
 
     Returns
     -------
@@ -96,13 +155,25 @@ def default_effect(name: str, kappa: float, C: float, depths_cm=(0, 1, 2, 3, 4))
         return {"evap_A": 30.0, "evap_tau": 3.0}
     if name == "conductivity_temperature":
         return {"kappa_beta": -0.005}
-    return {"rad_factor": 0.85}  # radiation_factor
+    if name == "radiation_factor":
+        return {"rad_factor": 0.85}
+    if name == "surface_layer":
+        return {"layer_thickness": 0.015, "layer_kappa": 0.06, "layer_C": 0.3e6, "R_surface": 0.25}
+    if name == "evapotranspiration":
+        return {"et_alpha": 1.0}
+    if name == "sensor_lag":
+        return {"lag_sensor_cm": float(depths_cm[len(depths_cm) // 2]), "lag_minutes": 60.0}
+    if name == "shading":
+        return {"shade_fraction": 0.6, "shade_start": 13.5, "shade_end": 16.5}
+    # buried_source
+    around = [*depths_cm, bottom_cm][1:3] if len(depths_cm) >= 3 else [*depths_cm, bottom_cm][-2:]
+    return {"source_flux": 50.0, "source_depth": float(np.mean(around)) / 100.0}
 
 
 def check_name(name: str) -> None:
     """Raise ValueError naming the valid effects if ``name`` is not one of them."""
-    if name not in EFFECTS:
-        raise ValueError(f"unknown hidden effect {name!r}; valid effects: {', '.join(EFFECTS)}")
+    if name not in ALL_EFFECTS:
+        raise ValueError(f"unknown hidden effect {name!r}; valid effects: {', '.join(ALL_EFFECTS)}")
 
 
 def resolve_effects(
@@ -119,28 +190,45 @@ def resolve_effects(
 
     Returns
     -------
-    effect name -> complete parameter dict (floats), in the order of :data:`EFFECTS`.
+    effect name -> complete parameter dict (floats), in the order of :data:`ALL_EFFECTS`.
     """
     for name in effects:
         check_name(name)
     out = {}
-    for name in EFFECTS:
+    for name in ALL_EFFECTS:
         if name not in effects:
             continue
-        params = default_effect(name, kappa, C, depths_cm)
+        params = default_effect(name, kappa, C, depths_cm, bottom_cm)
         given = dict(effects[name] or {})
+        if name == "surface_layer" and "R_surface" in given:
+            raise ValueError(
+                "effect 'surface_layer': R_surface is derived (layer_thickness / layer_kappa); "
+                "give layer_thickness and layer_kappa instead"
+            )
         unknown = set(given) - set(params)
         if unknown:
             raise ValueError(
                 f"effect {name!r}: unknown parameter(s) {sorted(unknown)}; valid: {list(params)}"
             )
         params.update({k: float(v) for k, v in given.items()})
+        if name == "sensor_lag" and not any(abs(params["lag_sensor_cm"] - d) < 1e-9 for d in depths_cm):
+            raise ValueError(
+                f"effect 'sensor_lag': lag_sensor_cm={params['lag_sensor_cm']:g} is not an observed "
+                f"sensor; valid: {', '.join(f'{d:g}' for d in depths_cm)}"
+            )
+        if name == "buried_source" and not 0 < params["source_depth"] < bottom_cm / 100.0:
+            raise ValueError(
+                f"effect 'buried_source': source_depth={params['source_depth']:g} m must lie "
+                f"between the surface and the bottom sensor ({bottom_cm / 100.0:g} m)"
+            )
         if name == "sensor_depth":  # never above the surface, always above the bottom sensor
             for d, key in zip(depths_cm, params, strict=True):
                 params[key] = max(params[key], -d / 100.0)
                 if d / 100.0 + params[key] >= bottom_cm / 100.0:
                     raise ValueError(f"effect 'sensor_depth': {key} puts the sensor below the bottom")
         _check_ranges(name, params)
+        if name == "surface_layer":
+            params["R_surface"] = params["layer_thickness"] / params["layer_kappa"]
         out[name] = params
     return out
 
@@ -155,5 +243,17 @@ def _check_ranges(name: str, p: dict) -> None:
         bad = "rad_factor must be positive"
     elif name == "conductivity_temperature" and not abs(p["kappa_beta"]) < 0.02:
         bad = "|kappa_beta| must be < 0.02 1/K (kappa would change sign within 0-70 degC)"
+    elif name == "surface_layer" and not (
+        0 < p["layer_thickness"] <= 0.2 and p["layer_kappa"] > 0 and p["layer_C"] > 0
+    ):
+        bad = "layer_thickness must be in (0, 0.2] m, layer_kappa and layer_C positive"
+    elif name == "evapotranspiration" and not 0 <= p["et_alpha"] <= 1.3:
+        bad = "et_alpha must be in [0, 1.3] (Priestley-Taylor: 1.26 over wet ground)"
+    elif name == "sensor_lag" and not p["lag_minutes"] > 0:
+        bad = "lag_minutes must be positive"
+    elif name == "shading" and not (
+        0 < p["shade_fraction"] <= 1 and 0 <= p["shade_start"] < p["shade_end"] <= 24
+    ):
+        bad = "shade_fraction must be in (0, 1] and 0 <= shade_start < shade_end <= 24 (clock hours)"
     if bad:
         raise ValueError(f"effect {name!r}: {bad}")

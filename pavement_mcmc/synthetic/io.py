@@ -32,9 +32,10 @@ def write_case(spec: SyntheticSpec, directory: str | Path, name: str | None = No
     Returns
     -------
     Path of the written measurements.csv. Temperatures and T_air have 2 decimals, q_net and
-    rain 1, wind 2, as in the reference case. truth.json has the reference case's keys
-    (kappa, C, sigma, h_true_obs, one key per effect, null when absent) plus ``effects``
-    (catalogue names -> parameters) and ``spec``.
+    rain 1, wind 2, as in the reference case, heat-flux plates ``G_<d>cm`` 1. truth.json has
+    the reference case's keys (kappa, C, sigma, h_true_obs, one key per catalogue effect, null
+    when absent) plus ``effects`` (every hidden effect -> parameters), ``spec`` and the series
+    of :func:`truth_record`.
     """
     directory = Path(directory)
     directory.mkdir(parents=True, exist_ok=True)
@@ -46,15 +47,27 @@ def write_case(spec: SyntheticSpec, directory: str | Path, name: str | None = No
         writer.writerow(names)
         for i in range(columns["time"].size):
             writer.writerow(
-                [columns[c][i] if c == "time" else f"{columns[c][i]:.{_DECIMALS.get(c, 2)}f}" for c in names]
+                [columns[c][i] if c == "time" else f"{columns[c][i]:.{_decimals(c)}f}" for c in names]
             )
     record = truth_record(spec, truth, name or directory.name)
     (directory / "truth.json").write_text(json.dumps(record, indent=1))
     return csv_path
 
 
+def _decimals(column: str) -> int:
+    return 1 if column.startswith("G_") else _DECIMALS.get(column, 2)
+
+
 def truth_record(spec: SyntheticSpec, truth: Truth, name: str) -> dict:
-    """The JSON-ready truth of a dataset (the reference case's truth.json format, extended)."""
+    """The JSON-ready truth of a dataset (the reference case's truth.json format, extended).
+
+    Besides the reference keys: ``effects`` (every hidden effect, e.g. ``surface_layer`` with
+    its derived ``R_surface``, ``evapotranspiration`` with ``et_alpha``), ``q_et_obs`` (true
+    evapotranspiration LE at each row, W m-2, when that effect is on), ``flux_true_obs``
+    (``G_<d>cm`` -> true conductive flux at each row, W m-2, positive downward, before the
+    plate's factor and noise), ``soil_top_m`` (thatch thickness, m), ``grid`` (the simulator's
+    cell size and time step) and ``spec``.
+    """
     record: dict = {"name": name, "seed": spec.seed, "kappa": truth.kappa, "C": truth.C}
     for effect in EFFECTS:
         record[REFERENCE_KEYS[effect]] = truth.effects.get(effect)
@@ -63,6 +76,12 @@ def truth_record(spec: SyntheticSpec, truth: Truth, name: str) -> dict:
     record["h_true_obs"] = [round(float(v), 3) for v in truth.h_obs]
     record["rmse_noise_only"] = truth.noise_rms
     record["effects"] = truth.effects
+    if "evapotranspiration" in truth.effects:
+        record["q_et_obs"] = [round(float(v), 2) for v in truth.q_et]
+    if truth.flux:
+        record["flux_true_obs"] = {k: [round(float(v), 2) for v in s] for k, s in truth.flux.items()}
+    record["soil_top_m"] = truth.soil_top
+    record["grid"] = {"dz_m": truth.dz, "dt_s": truth.dt}
     record["spec"] = {k: (list(v) if isinstance(v, tuple) else v) for k, v in asdict(spec).items()}
     return record
 

@@ -8,9 +8,21 @@ from datetime import datetime, timedelta
 import numpy as np
 from scipy.interpolate import PchipInterpolator
 
-from .column import KELVIN, STEFAN_BOLTZMANN, integrate, layered_column, stretched_nodes
+from .column import KELVIN, STEFAN_BOLTZMANN, conductive_flux, march
 from .effects import DEFAULT_RAIN, resolve_effects
+from .ground import build_ground
+from .processes import (
+    first_order_lag,
+    priestley_taylor_factor,
+    rain_latent_flux,
+    rain_per_row,
+    shade_multiplier,
+)
 from .weather import HOUR, make_weather
+
+PT_FACTOR_MAX = 0.95
+"""Largest Priestley-Taylor factor alpha s/(s + gamma) the lagged ET closure accepts (it relaxes
+with this ratio per solver step; at 1 it would not converge)."""
 
 PAPER_H_KNOTS = (16.67, 6.43, 10.29, 14.33, 12.92)
 """The paper's Case C h estimates (W m-2 K-1), placed evenly over the window (0, 7, ... 28 h)."""
@@ -51,10 +63,21 @@ class SyntheticSpec:
     spinup_hours : simulated time before the window (same weather generator), h.
     column_cm : depth of the simulated column, cm (fixed temperature ``T_deep`` there).
     T_deep : deep temperature and uniform initial temperature at the start of the spin-up,
-        degC; None: mean air temperature + 8 degC.
-    dz_mm : cell size in the resolved zone (down to 2 cm below the deepest sensor), mm.
-    dt_s : target time step, s (rounded down to divide the sampling step).
-    time0 : ISO 8601 UTC time of the first row.
+        degC; None: mean air temperature + the climate's offset (+8 degC summer, -0.5 spring).
+    dz_mm : cell size in the resolved zone (down to 2 cm below the deepest sensor, plate,
+        source or interface), mm. None: 0.25 if ``bottom_cm`` <= 10 (pavement geometry), else 1.
+    dt_s : target time step, s (rounded down to divide the sampling step). None: 5 if
+        ``bottom_cm`` <= 10, else 30 (see :func:`resolved_grid`).
+    time0 : ISO 8601 UTC time of the first row (its clock sets the hour of day).
+    climate : weather climate, "summer" (June over asphalt) or "spring" (early April over
+        grass), see :data:`~pavement_mcmc.synthetic.weather.CLIMATES`.
+    flux_depths_cm : nominal depths of heat-flux plates, cm from the soil surface; each adds a
+        ``G_<d>cm`` column (W m-2, positive downward).
+    plate_factor : calibration factor of the plates: reading = factor x true flux x
+        (1 + plate_rel_noise N1) + plate_abs_noise N2 (N1, N2 standard normal from their own
+        random stream).
+    plate_rel_noise : relative noise of the plates (-).
+    plate_abs_noise : absolute noise of the plates, W m-2.
     """
 
     kappa: float = 1.31
@@ -76,9 +99,14 @@ class SyntheticSpec:
     spinup_hours: float = 48.0
     column_cm: float = 30.0
     T_deep: float | None = None
-    dz_mm: float = 0.25
-    dt_s: float = 5.0
+    dz_mm: float | None = None
+    dt_s: float | None = None
     time0: str = "2004-06-06T00:00:00Z"
+    climate: str = "summer"
+    flux_depths_cm: tuple = ()
+    plate_factor: float = 1.0
+    plate_rel_noise: float = 0.05
+    plate_abs_noise: float = 2.0
 
 
 @dataclass(frozen=True)
@@ -97,9 +125,17 @@ class Truth:
     z : (n_nodes,) depths of the simulator's nodes, m.
     T_initial : (n_nodes,) true temperature profile at t = 0 (after spin-up), degC.
     q_ground : (n_obs,) net radiation actually absorbed by the ground at each row, W m-2.
-    q_evap : (n_obs,) latent heat flux out of the ground at each row, W m-2.
+    q_evap : (n_obs,) latent heat flux out of the ground at each row (``evaporation``), W m-2.
     noise_rms : RMS of the noise actually added to the observed sensors, degC.
     seed : the spec's seed.
+    q_et : (n_obs,) evapotranspiration LE at each row (``evapotranspiration``), W m-2.
+    flux : ``G_<d>cm`` -> (n_obs,) true conductive flux at each plate's depth, W m-2, positive
+        downward (before the plate's calibration factor and noise).
+    profiles : (n_obs, n_nodes) true temperature at every node at each row, degC.
+    soil_top : depth of the soil surface in the simulated column, m (the ``surface_layer``
+        thickness, else 0): nominal depth d sits at ``z = soil_top + d``.
+    dz : cell size of the resolved zone, m.
+    dt : solver time step, s.
     """
 
     kappa: float
@@ -115,11 +151,37 @@ class Truth:
     q_evap: np.ndarray
     noise_rms: float = 0.0
     seed: int = 0
+    q_et: np.ndarray | None = None
+    flux: dict = field(default_factory=dict)
+    profiles: np.ndarray | None = None
+    soil_top: float = 0.0
+    dz: float = 0.0
+    dt: float = 0.0
 
 
 def temperature_columns(spec: SyntheticSpec) -> list[str]:
     """CSV names of the temperature columns: observed sensors, then the bottom one."""
     return [f"T_{d:g}cm" for d in (*spec.depths_cm, spec.bottom_cm)]
+
+
+def flux_columns(spec: SyntheticSpec) -> list[str]:
+    """CSV names of the heat-flux plate columns, ``G_<d>cm``, in the order of the spec."""
+    return [f"G_{d:g}cm" for d in spec.flux_depths_cm]
+
+
+def resolved_grid(spec: SyntheticSpec) -> tuple[float, float]:
+    """Cell size of the resolved zone (m) and target time step (s) the spec asks for.
+
+    Defaults: 0.25 mm and 5 s for the paper's pavement geometry (bottom sensor at <= 10 cm;
+    halving both moves the 0-5 cm temperatures by ~1e-4 degC); 1 mm and 30 s for deeper,
+    field-like geometries (2-50 cm sensors: 3e-4 degC from 0.25 mm and 5 s, 25 times faster).
+    """
+    shallow = spec.bottom_cm <= 10.0
+    dz_mm = spec.dz_mm if spec.dz_mm is not None else (0.25 if shallow else 1.0)
+    dt_s = spec.dt_s if spec.dt_s is not None else (5.0 if shallow else 30.0)
+    if not (dz_mm > 0 and dt_s > 0):
+        raise ValueError(f"dz_mm={dz_mm} and dt_s={dt_s} must be positive")
+    return dz_mm / 1000.0, float(dt_s)
 
 
 def _check(spec: SyntheticSpec) -> tuple[np.ndarray, float]:
@@ -135,27 +197,14 @@ def _check(spec: SyntheticSpec) -> tuple[np.ndarray, float]:
         raise ValueError("drop_fraction must be in [0, 1)")
     if spec.hours <= 0 or spec.step_minutes <= 0 or spec.spinup_hours < 0:
         raise ValueError("hours and step_minutes must be positive, spinup_hours >= 0")
+    plates = np.asarray(spec.flux_depths_cm, float)
+    if plates.size and (np.any(plates < 0) or np.any(plates / 100.0 > spec.column_cm / 100.0 - 0.05)):
+        raise ValueError(f"flux_depths_cm={spec.flux_depths_cm} must lie in [0, column_cm - 5] cm")
+    if len(set(flux_columns(spec))) != plates.size:
+        raise ValueError(f"flux_depths_cm={spec.flux_depths_cm} holds the same depth twice")
+    if not (spec.plate_factor > 0 and spec.plate_rel_noise >= 0 and spec.plate_abs_noise >= 0):
+        raise ValueError("plate_factor must be positive, plate_rel_noise and plate_abs_noise >= 0")
     return depths, bottom
-
-
-def _rain_per_row(events: tuple, t_rows: np.ndarray, hours: float) -> np.ndarray:
-    """Rain (mm, 0.1 mm resolution) of each regular row: what fell in (t_{k-1}, t_k]."""
-    cumulative = np.zeros(t_rows.size)
-    for start, duration, total in events:
-        if not (0 <= start and start + duration <= hours and duration > 0 and total >= 0):
-            raise ValueError(f"rain event {(start, duration, total)} must lie inside the window")
-        a, b = start * HOUR, (start + duration) * HOUR
-        cumulative += total * np.clip((t_rows - a) / (b - a), 0.0, 1.0)
-    return np.diff(np.round(cumulative, 1), prepend=0.0)
-
-
-def _latent_flux(t_rows: np.ndarray, rain: np.ndarray, A: float, tau_h: float) -> np.ndarray:
-    """A sum_{t_k <= t} r_k exp(-(t - t_k)/tau) at the row times, W m-2."""
-    tau = tau_h * HOUR
-    q = np.zeros(t_rows.size)
-    for k in np.flatnonzero(rain):
-        q[k:] += A * rain[k] * np.exp(-(t_rows[k:] - t_rows[k]) / tau)
-    return q
 
 
 def _iso_times(time0: str, t: np.ndarray) -> np.ndarray:
@@ -174,17 +223,20 @@ def simulate(spec: SyntheticSpec) -> tuple[dict[str, np.ndarray], Truth]:
     Returns
     -------
     columns : the CSV contract's columns, unrounded: ``time`` (ISO 8601 strings), ``T_air``
-        (degC), ``q_net`` (W m-2), ``wind`` (m s-1), ``rain`` (mm per row), ``T_<d>cm`` (degC).
-    truth : the true parameters, h(t), effects and noise-free temperatures.
+        (degC), ``q_net`` (W m-2), ``wind`` (m s-1), ``rain`` (mm per row), ``T_<d>cm`` (degC),
+        then ``G_<d>cm`` (W m-2, positive downward) for each heat-flux plate.
+    truth : the true parameters, h(t), effects, noise-free temperatures and fluxes.
     """
     depths, bottom = _check(spec)
+    dz, dt_target = resolved_grid(spec)
     effects = resolve_effects(spec.effects or {}, spec.kappa, spec.C, spec.depths_cm, spec.bottom_cm)
     seq = np.random.SeedSequence(spec.seed)
     rng_weather, rng_noise, rng_rows = (np.random.default_rng(s) for s in seq.spawn(3))
+    rng_plates = np.random.default_rng(seq.spawn(1)[0])  # the 4th child: the first 3 unchanged
 
     # time levels: rows every `step`, solver steps of dt dividing it, spin-up whole rows
     step = spec.step_minutes * 60.0
-    substeps = int(np.ceil(step / spec.dt_s - 1e-9))
+    substeps = int(np.ceil(step / dt_target - 1e-9))
     dt = step / substeps
     n_rows = int(round(spec.hours * HOUR / step)) + 1
     n_spin = int(round(spec.spinup_hours * HOUR / step))
@@ -194,12 +246,13 @@ def simulate(spec: SyntheticSpec) -> tuple[dict[str, np.ndarray], Truth]:
     rain_events = spec.rain if spec.rain is not None else (DEFAULT_RAIN if "evaporation" in effects else ())
     start_hour = datetime.fromisoformat(spec.time0.replace("Z", "+00:00"))
     start_hour = start_hour.hour + start_hour.minute / 60.0 + start_hour.second / 3600.0
-    weather = make_weather(rng_weather, t_levels[0], t_levels[-1], tuple(rain_events), start_hour=start_hour)
+    events = tuple(rain_events)
+    weather = make_weather(rng_weather, t_levels[0], t_levels[-1], events, start_hour, spec.climate)
 
     # rows kept (irregular sampling) and their rain, accumulated over dropped rows
     keep = rng_rows.random(n_rows) >= spec.drop_fraction
     keep[0] = keep[-1] = True
-    rain_all = _rain_per_row(tuple(rain_events), t_rows_all, spec.hours)
+    rain_all = rain_per_row(tuple(rain_events), t_rows_all, spec.hours)
     rain = np.diff(np.cumsum(rain_all)[keep], prepend=0.0)
     rain = np.round(rain, 1)
     t_rows = t_rows_all[keep]
@@ -226,32 +279,42 @@ def simulate(spec: SyntheticSpec) -> tuple[dict[str, np.ndarray], Truth]:
         spline = PchipInterpolator(knots_t, spec.h_knots)
         h = at_levels(lambda t: spline(np.clip(t, 0.0, knots_t[-1])))  # h(0) in the spin-up
     f = effects.get("radiation_factor", {}).get("rad_factor", 1.0)
+    sw_ground = sw  # what reaches the ground; the radiometer sees `sw`
+    if "shading" in effects:
+        p = effects["shading"]
+        shade = shade_multiplier(t_levels, start_hour, p["shade_start"], p["shade_end"], p["shade_fraction"])
+        sw_ground = sw * shade
     eps_sigma = spec.emissivity * STEFAN_BOLTZMANN
     if spec.emission:
-        q_abs, e_rad = f * (sw + lw), f * spec.emissivity
+        q_abs, q_open, e_rad = f * (sw_ground + lw), f * (sw + lw), f * spec.emissivity
     else:
-        q_abs, e_rad = f * (sw + lw - eps_sigma * (T_air + KELVIN) ** 4), 0.0
+        q_abs = f * (sw_ground + lw - eps_sigma * (T_air + KELVIN) ** 4)
+        q_open, e_rad = f * (sw + lw - eps_sigma * (T_air + KELVIN) ** 4), 0.0
     q_evap_rows = np.zeros(t_rows.size)
     if "evaporation" in effects:
         if not rain.any():
             raise ValueError("the evaporation effect needs rain inside the recorded window")
         p = effects["evaporation"]
-        q_evap_rows = _latent_flux(t_rows, rain, p["evap_A"], p["evap_tau"])
+        q_evap_rows = rain_latent_flux(t_rows, rain, p["evap_A"], p["evap_tau"])
     q_sink = np.interp(t_levels, t_rows, q_evap_rows, left=0.0)
+    pt_factor = None
+    if "evapotranspiration" in effects:
+        pt_factor = priestley_taylor_factor(T_air, effects["evapotranspiration"]["et_alpha"])
+        if pt_factor.max() >= PT_FACTOR_MAX:
+            raise ValueError(
+                f"effect 'evapotranspiration': et_alpha s/(s + gamma) reaches {pt_factor.max():.3f} "
+                f"at T_air = {T_air.max():.1f} degC; the lagged closure needs < {PT_FACTOR_MAX}"
+            )
 
-    # the column
-    kap, Cs, interfaces = [spec.kappa], [spec.C], []
-    if "two_layer" in effects:
-        p = effects["two_layer"]
-        kap, Cs, interfaces = [spec.kappa, p["kappa2"]], [spec.C, p["C2"]], [p["d_layer"]]
-    offsets = np.array(list(effects.get("sensor_depth", {}).values()) or np.zeros(depths.size))
-    true_depths = np.append(depths + offsets, bottom)
-    fine = max(true_depths.max(), *(interfaces or [0.0])) + 0.02
-    z = stretched_nodes(fine, spec.column_cm / 100.0, spec.dz_mm / 1000.0)
-    column = layered_column(z, np.asarray(interfaces), np.asarray(kap), np.asarray(Cs))
-    T_deep = weather.params["T_mean"] + 8.0 if spec.T_deep is None else spec.T_deep
-    profiles = integrate(
-        column,
+    # the ground: optional thatch on one or two soil layers; nominal depths from the soil surface
+    plates = np.asarray(spec.flux_depths_cm, float) / 100.0
+    ground = build_ground(spec.kappa, spec.C, effects, depths, bottom, spec.column_cm / 100.0, dz, plates)
+    z, true_depths = ground.z, ground.sensor_z
+    T_deep = spec.T_deep
+    if T_deep is None:
+        T_deep = weather.params["T_mean"] + weather.params["T_deep_offset"]
+    run = march(
+        ground.column,
         np.full(z.size, T_deep),
         dt,
         T_air,
@@ -260,21 +323,33 @@ def simulate(spec: SyntheticSpec) -> tuple[dict[str, np.ndarray], Truth]:
         q_sink,
         np.full(t_levels.size, T_deep),
         emissivity=e_rad,
-        beta=effects.get("conductivity_temperature", {}).get("kappa_beta", 0.0),
+        beta=ground.beta,
         record_every=substeps,
-    )[n_spin:][keep]
+        source=ground.source,
+        pt_factor=pt_factor,
+    )
+    profiles = run.profiles[n_spin:][keep]
 
     # sensors: linear interpolation between fine nodes at the true depths
     T_clean = np.array([np.interp(true_depths, z, prof) for prof in profiles])
     row_levels = (np.arange(n_rows) + n_spin) * substeps
     lv = row_levels[keep]
-    q_ground = q_abs[lv] - e_rad * STEFAN_BOLTZMANN * (profiles[:, 0] + KELVIN) ** 4
-    q_rec = q_ground / f
+    emitted = e_rad * STEFAN_BOLTZMANN * (profiles[:, 0] + KELVIN) ** 4
+    q_ground = q_abs[lv] - emitted
+    q_rec = (q_open[lv] - emitted) / f
     T_air_rec = T_air[lv].copy()
 
     # noise: drawn for every regular row, so dropping rows or adding effects leaves it unchanged
     noise = rng_noise.standard_normal((n_rows, true_depths.size + 3))[keep]
-    recorded = T_clean + spec.sigma * noise[:, : true_depths.size]
+    reading = T_clean
+    if "sensor_lag" in effects:  # lag over the spin-up rows too, then the kept rows
+        p = effects["sensor_lag"]
+        k = int(np.argmin(np.abs(np.asarray(spec.depths_cm, float) - p["lag_sensor_cm"])))
+        t_all = (np.arange(n_spin + n_rows) - n_spin) * step
+        T_k = np.array([np.interp(true_depths[k], z, r) for r in run.profiles])
+        reading = T_clean.copy()
+        reading[:, k] = first_order_lag(t_all, T_k, p["lag_minutes"] * 60.0)[n_spin:][keep]
+    recorded = reading + spec.sigma * noise[:, : true_depths.size]
     if "sensor_bias" in effects:
         recorded[:, : depths.size] += np.array(list(effects["sensor_bias"].values()))
     if spec.forcing_noise:
@@ -290,6 +365,16 @@ def simulate(spec: SyntheticSpec) -> tuple[dict[str, np.ndarray], Truth]:
     }
     for name, values in zip(temperature_columns(spec), recorded.T, strict=True):
         columns[name] = values
+
+    # heat-flux plates: true conductive flux, calibration factor, noise from their own stream
+    flux = conductive_flux(ground.column, profiles, ground.plate_z, ground.beta)
+    plate_noise = rng_plates.standard_normal((n_rows, 2 * plates.size))[keep]
+    flux_true = {}
+    for j, name in enumerate(flux_columns(spec)):
+        flux_true[name] = flux[:, j]
+        gain = spec.plate_factor * (1.0 + spec.plate_rel_noise * plate_noise[:, 2 * j])
+        columns[name] = gain * flux[:, j] + spec.plate_abs_noise * plate_noise[:, 2 * j + 1]
+
     truth = Truth(
         kappa=spec.kappa,
         C=spec.C,
@@ -304,5 +389,11 @@ def simulate(spec: SyntheticSpec) -> tuple[dict[str, np.ndarray], Truth]:
         q_evap=q_evap_rows,
         noise_rms=float(np.sqrt(np.mean((spec.sigma * noise[:, : depths.size]) ** 2))),
         seed=spec.seed,
+        q_et=run.latent[lv],
+        flux=flux_true,
+        profiles=profiles,
+        soil_top=ground.soil_top,
+        dz=dz,
+        dt=dt,
     )
     return columns, truth

@@ -1,4 +1,5 @@
-"""A plausible synthetic summer weather generator (mid-latitude, clear-sky-ish June days).
+"""A plausible synthetic weather generator: clear-sky-ish mid-latitude June days over asphalt
+("summer", the default) or early-April days over grass ("spring", like the Goettingen record).
 
 Every series is a smooth function of time: a deterministic diurnal shape plus smooth random
 perturbations (cubic splines through hourly N(0, 1) knots), so that sampling every 15 min
@@ -93,31 +94,10 @@ class Weather:
         return np.clip(v, 0.2, None)
 
 
-def make_weather(
-    rng: np.random.Generator,
-    t_start: float,
-    t_end: float,
-    rain_events: tuple = (),
-    start_hour: float = 0.0,
-) -> Weather:
-    """Draw a weather realisation.
-
-    Parameters
-    ----------
-    rng : random generator (the only source of randomness).
-    t_start, t_end : interval to cover, s from the window start (spin-up included).
-    rain_events : ``((start_h, duration_h, total_mm), ...)`` showers, hours from the window start.
-    start_hour : UTC hour of day at ``t == 0``.
-
-    Returns
-    -------
-    Weather. Typical values: T_air 11-25 degC, absorbed short-wave up to ~800 W m-2,
-    long-wave 290-360 W m-2, wind 1-4 m s-1.
-    """
-    params = {
-        "start_hour": start_hour,
-        "T_mean": 18.0 + rng.normal(0.0, 1.0),
-        "T_amp": 6.5 + rng.normal(0.0, 0.5),
+CLIMATES = {
+    "summer": {
+        "T_mean": 18.0,
+        "T_amp": 6.5,
         "T_noise": 0.4,
         "t_min_hour": 4.5,
         "t_max_hour": 15.0,
@@ -131,7 +111,64 @@ def make_weather(
         "wind_amp": 1.6,
         "wind_noise": 0.45,
         "wind_calm_hour": 3.5,
-    }
+        "T_deep_offset": 8.0,
+    },
+    "spring": {
+        "T_mean": 8.0,
+        "T_amp": 6.0,
+        "T_noise": 0.5,
+        "t_min_hour": 5.0,
+        "t_max_hour": 14.0,
+        "S_max": 720.0,
+        "albedo": 0.22,
+        "sunrise_hour": 5.2,
+        "day_length_h": 12.8,
+        "cloud": 0.15,
+        "eps_sky": 0.72,
+        "wind_night": 0.8,
+        "wind_amp": 1.6,
+        "wind_noise": 0.4,
+        "wind_calm_hour": 3.5,
+        "T_deep_offset": -0.5,
+    },
+}
+"""Deterministic shape parameters of each climate (times are UTC hours of day; S_max W m-2 is
+the clear-sky global radiation at noon; T_deep_offset degC is the default deep temperature
+minus the mean air temperature: a sun-heated pavement in summer, a soil still cool from winter
+in spring). "spring" stands for early April at ~51 N over grass (sunrise ~05 UTC, 12.8 h of
+day, noon sun ~43 degrees high)."""
+
+
+def make_weather(
+    rng: np.random.Generator,
+    t_start: float,
+    t_end: float,
+    rain_events: tuple = (),
+    start_hour: float = 0.0,
+    climate: str = "summer",
+) -> Weather:
+    """Draw a weather realisation.
+
+    Parameters
+    ----------
+    rng : random generator (the only source of randomness; the same draws for every climate).
+    t_start, t_end : interval to cover, s from the window start (spin-up included).
+    rain_events : ``((start_h, duration_h, total_mm), ...)`` showers, hours from the window start.
+    start_hour : UTC hour of day at ``t == 0``.
+    climate : a key of :data:`CLIMATES`.
+
+    Returns
+    -------
+    Weather. Typical values, summer: T_air 11-25 degC, absorbed short-wave up to ~800 W m-2,
+    long-wave 290-360 W m-2, wind 1-4 m s-1; spring: T_air 1-15 degC, absorbed short-wave up to
+    ~560 W m-2, long-wave 250-310 W m-2, wind 0.5-3.5 m s-1.
+    """
+    if climate not in CLIMATES:
+        raise ValueError(f"unknown climate {climate!r}; valid: {', '.join(CLIMATES)}")
+    base = CLIMATES[climate]
+    params = {"start_hour": start_hour, **base}
+    params["T_mean"] = base["T_mean"] + rng.normal(0.0, 1.0)
+    params["T_amp"] = base["T_amp"] + rng.normal(0.0, 0.5)
     knots = np.arange(np.floor(t_start / HOUR) - 2, np.ceil(t_end / HOUR) + 3) * HOUR
     noise = tuple(CubicSpline(knots, rng.standard_normal(knots.size)) for _ in range(4))
     return Weather(float(t_start), float(t_end), tuple(rain_events), params, noise)
