@@ -11,7 +11,7 @@ from collections import Counter
 import numpy as np
 import pytest
 
-from pavement_mcmc.config import load_case
+from pavement_mcmc.data import load_case
 from pavement_mcmc.synthetic import (
     EFFECTS,
     NEW_CATALOGUE_EFFECTS,

@@ -21,7 +21,7 @@ Categories:
   weather) with evapotranspiration and / or thatch and a 5 cm heat-flux plate.
 
 >>> twin = get_twin("clean-paper-caseA-tight")
->>> case_toml = write_twin(twin, "twins/" + twin.name)   # then pavement_mcmc.config.load_case
+>>> case_toml = write_twin(twin, "twins/" + twin.name)   # then pavement_mcmc.data.load_case
 """
 
 from __future__ import annotations
@@ -323,7 +323,7 @@ def write_twin(twin: Twin, directory: str | Path) -> Path:
 
     Returns
     -------
-    Path of ``case.toml`` (load it with :func:`pavement_mcmc.config.load_case`; heat-flux plate
+    Path of ``case.toml`` (load it with :func:`pavement_mcmc.data.load_case`; heat-flux plate
     columns ``G_<d>cm`` are outside the current CSV contract and are ignored with a warning).
     """
     directory = Path(directory)

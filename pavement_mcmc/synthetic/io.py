@@ -6,12 +6,12 @@ import csv
 import json
 import re
 from dataclasses import asdict
-from datetime import datetime
 from pathlib import Path
 
 import numpy as np
 
 from ..data.measurements import Measurements
+from ..data.times import seconds_between
 from .effects import EFFECTS, REFERENCE_KEYS
 from .simulate import SyntheticSpec, Truth, simulate
 
@@ -118,8 +118,7 @@ def to_measurements(
     if bottom not in found:
         raise ValueError(f"no column T_{bottom:g}cm for the bottom sensor")
     observed = sorted(d for d in found if d < bottom)
-    stamps = [datetime.fromisoformat(str(s).replace("Z", "+00:00")) for s in columns["time"]]
-    t = np.array([(s - stamps[0]).total_seconds() for s in stamps])
+    t = seconds_between(columns["time"])
     if np.any(np.diff(t) <= 0):
         raise ValueError("times must be strictly increasing")
 

@@ -3,11 +3,11 @@
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from datetime import datetime, timedelta
 
 import numpy as np
 from scipy.interpolate import PchipInterpolator
 
+from ..data.times import hour_of_day, times_after
 from .column import KELVIN, STEFAN_BOLTZMANN, conductive_flux, march
 from .effects import DEFAULT_RAIN, resolve_effects
 from .ground import build_ground
@@ -208,9 +208,7 @@ def _check(spec: SyntheticSpec) -> tuple[np.ndarray, float]:
 
 
 def _iso_times(time0: str, t: np.ndarray) -> np.ndarray:
-    start = datetime.fromisoformat(time0.replace("Z", "+00:00"))
-    stamps = [(start + timedelta(seconds=float(s))).strftime("%Y-%m-%dT%H:%M:%SZ") for s in t]
-    return np.asarray(stamps)
+    return np.asarray(times_after(time0, t))
 
 
 def simulate(spec: SyntheticSpec) -> tuple[dict[str, np.ndarray], Truth]:
@@ -244,8 +242,7 @@ def simulate(spec: SyntheticSpec) -> tuple[dict[str, np.ndarray], Truth]:
     t_rows_all = (np.arange(n_rows)) * step
 
     rain_events = spec.rain if spec.rain is not None else (DEFAULT_RAIN if "evaporation" in effects else ())
-    start_hour = datetime.fromisoformat(spec.time0.replace("Z", "+00:00"))
-    start_hour = start_hour.hour + start_hour.minute / 60.0 + start_hour.second / 3600.0
+    start_hour = float(hour_of_day(spec.time0, 0.0))
     events = tuple(rain_events)
     weather = make_weather(rng_weather, t_levels[0], t_levels[-1], events, start_hour, spec.climate)
 
