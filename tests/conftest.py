@@ -18,3 +18,14 @@ def tiny_run(tmp_path_factory) -> Path:
     fit(REPO / "runs" / "caseA.toml", root, overwrite=True, seed=3,
         overrides={"sampler": {"kind": "emcee", "max_steps": 300, "n_walkers": 12}})
     return root
+
+
+#: the shared real record (its licence differs from ours: read it in place, never copy it)
+GRASS = REPO.parent / "shared" / "data" / "goettingen_grass" / "measurements.csv"
+
+
+@pytest.fixture(scope="session")
+def grass_csv() -> Path:
+    if not GRASS.is_file():
+        pytest.skip(f"the shared real record is not here ({GRASS})")
+    return GRASS

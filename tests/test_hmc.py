@@ -103,7 +103,7 @@ def test_models_without_adjoint_fall_back_to_finite_differences():
     from pavement_mcmc.data import load_case
     from pavement_mcmc.posterior import build_problem
 
-    pr = build_problem(load_case(REPO / "runs" / "caseA.toml"), extensions=["two_layer"])
+    pr = build_problem(load_case(REPO / "runs" / "caseA.toml"), extensions=["conductivity_temperature"])
     post = pr.posterior
     assert not post.has_gradient
     theta = post.space.initial()[None]

@@ -40,6 +40,9 @@ class LinearGaussian:
     def standardized_residuals(self, r):
         return r.reshape(*r.shape[:-2], -1) / self.sigma
 
+    def whitened(self, theta):
+        return self.standardized_residuals(self.residuals(theta))
+
     def loglik_and_grad(self, theta):
         theta = np.atleast_2d(theta)
         r = theta @ self.X.T - self.y
@@ -204,6 +207,9 @@ class ToyGMRF:
 
     def standardized_residuals(self, r):
         return r.reshape(*r.shape[:-2], -1) / self.sigma
+
+    def whitened(self, theta):
+        return self.standardized_residuals(self.residuals(theta))
 
     def log_likelihood_from_residuals(self, r):
         return -0.5 * np.sum((r / self.sigma) ** 2, axis=(-2, -1))

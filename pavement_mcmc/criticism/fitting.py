@@ -96,8 +96,9 @@ def refit(problem, start: dict[str, float] | None = None, *, max_nfev: int = 100
     post = problem.posterior
     lap = find_map(post, start_vector(problem.space, start), max_nfev=max_nfev)
     theta = np.asarray(lap.theta, float)
-    r = post.residuals(theta[None, :])[0]
-    chi2 = float(np.sum(post.standardized_residuals(r) ** 2))
+    rT, rG = post.data_residuals(theta[None, :])
+    r = rT[0]
+    chi2 = float(np.sum(post.whiten(rT, rG) ** 2))
     return Fit(
         problem=problem,
         names=list(lap.names),
@@ -125,7 +126,7 @@ def _p_eff(post, lap) -> float:
     Z[np.arange(k), idx] = up * scale
     Z[k + np.arange(k), idx] = dn * scale
     with np.errstate(all="ignore"):
-        R = post.standardized_residuals(post.residuals(Z))
+        R = post.whitened(Z)
     Jd = ((R[:k] - R[k:]) / (up - dn)[:, None]).T
     Jd = np.where(np.isfinite(Jd), Jd, 0.0)
     Hd = Jd.T @ Jd

@@ -61,11 +61,12 @@ def subproblem(problem, keep: np.ndarray):
     meas = problem.meas
     sub = replace(meas, depths=meas.depths[keep], T_obs=meas.T_obs[:, keep])
     m = problem.model
-    model = Model(sub, m.grid, m.h_basis, m.extensions, scheme=m.scheme, gamma0=m.gamma0)
+    model = Model(sub, m.grid, m.h_basis, m.extensions, scheme=m.scheme, gamma0=m.gamma0,
+                  plates=m.plates)
     defaults = model.parameter_space()
     params = [problem.space[n] if n in problem.space else p for n, p in defaults.params.items()]
     space = ParameterSpace(params, defaults.joint_priors)
-    post = LogPosterior(model, space)
+    post = LogPosterior(model, space, problem.posterior.flux_sd)
     if problem.posterior.input_noise is not None:  # the kept sensors' block of the covariance
         post.input_noise = problem.posterior.input_noise.subset(_rows(meas, keep))
     return Problem(problem.cfg, model, space, post, problem.input_ref)

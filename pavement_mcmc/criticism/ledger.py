@@ -105,7 +105,9 @@ def ledger(runs: list[tuple[str, object, dict[str, float]]], *, holdout: bool = 
     for label, problem, values in runs:
         rep = analyse_point(problem, values)
         r = rep.residuals
-        z = problem.posterior.standardized_residuals(r)
+        space = problem.space
+        theta = np.array([[float(values.get(n, space[n].value)) for n in space.free]])
+        z = problem.posterior.whitened(theta)[0]
         n_free = len(problem.space.free)
         dof = max(r.size - n_free, 1)
         rows.append(

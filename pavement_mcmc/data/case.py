@@ -18,10 +18,15 @@ Schema (paths are relative to the TOML file's directory)::
     observed_cm = [0, 1, 2, 3, 4]   # optional, default: every sensor above the bottom
     bottom_cm = 5                   # optional, default: the deepest sensor
     max_gap_fill = 0                # optional
+    plates = true                   # optional: observe the G_<d>cm heat-flux plates (if any)
+    plate_sigma = 2.0               # optional, W m-2: sd of a plate reading's random error
+    plate_rel_sigma = 0.1           # optional: plus this share of the reading
     [data.columns]                  # optional renames: file column -> contract role
     "Tair" = "T_air"
     [model]                         # free-form; `h` and `extensions` are type-checked
     h = { kind = "pieces", edges_hours = [0, 6, 18, 28] }   # or { kind = "per_interval" }
+    top = "surface"                 # or "measured": the shallowest sensor is the top boundary
+    material = "loam"               # optional: plausibility notes against this material
     extensions = []
     [grid]                          # keys and defaults: GRID_DEFAULTS
     [parameters.<name>]             # keys: PARAMETER_KEYS (value, lower, upper, vary, prior)

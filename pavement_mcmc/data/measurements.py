@@ -27,6 +27,13 @@ class Measurements:
     sigma : measurement noise standard deviation, degC.
     source : where the data came from (CSV path).
     fill_report : gaps filled by interpolation, as ``(column, first_row, last_row)`` tuples.
+    flux_depths : (n_plates,) depths of heat-flux plates, m, increasing; or None.
+    G_obs : (n_obs, n_plates) plate readings, W m-2, positive downward; or None.
+    T_top : (n_obs,) temperature of a measured (Dirichlet) top boundary, degC, or None (the
+        surface energy balance is the top): see :meth:`with_measured_top`.
+    depth_offset : depth below the soil surface of the model's ``x = 0``, m (0, or the top
+        sensor's depth with a measured top). Every depth in this object is below ``x = 0``;
+        labels show the depth below the soil surface.
     """
 
     t: np.ndarray
@@ -42,6 +49,21 @@ class Measurements:
     sigma: float
     source: str = ""
     fill_report: tuple = field(default_factory=tuple)
+    flux_depths: np.ndarray | None = None
+    G_obs: np.ndarray | None = None
+    T_top: np.ndarray | None = None
+    depth_offset: float = 0.0
+
+    @property
+    def n_plates(self) -> int:
+        return 0 if self.flux_depths is None else int(self.flux_depths.size)
+
+    @property
+    def plate_labels(self) -> list[str]:
+        """Labels such as ``'G5cm'`` for each heat-flux plate."""
+        if self.flux_depths is None:
+            return []
+        return [f"G{(d + self.depth_offset) * 100:g}cm" for d in self.flux_depths]
 
     @property
     def n_obs(self) -> int:
@@ -54,13 +76,39 @@ class Measurements:
     @property
     def sensor_labels(self) -> list[str]:
         """Labels such as ``'0cm'`` for each observed sensor."""
-        return [f"{d * 100:g}cm" for d in self.depths]
+        return [f"{(d + self.depth_offset) * 100:g}cm" for d in self.depths]
 
     def initial_profile(self, x: np.ndarray) -> np.ndarray:
         """Initial temperature at depths ``x`` (m): linear interpolation of every sensor at t = 0."""
         z = np.append(self.depths, self.bottom_depth)
         T = np.append(self.T_obs[0], self.T_bottom[0])
+        if self.T_top is not None:
+            z, T = np.append(0.0, z), np.append(self.T_top[0], T)
         return np.interp(x, z, T)
+
+    def with_measured_top(self) -> Measurements:
+        """The same data with the shallowest sensor as a measured (Dirichlet) top boundary.
+
+        Depths are shifted so that ``x = 0`` is that sensor; the other sensors stay observed
+        (at least one must remain), plates must lie below it. The surface energy balance (air
+        temperature, net radiation, h) no longer enters: temperatures alone then fix only the
+        diffusivity kappa/C; kappa itself needs a flux observation or a prior.
+        """
+        if self.T_top is not None:
+            return self
+        if self.n_sensors < 2:
+            raise ValueError("a measured top needs at least two observed sensors (the shallowest "
+                             "becomes the boundary, the others are observed)")
+        z0 = float(self.depths[0])
+        fd = self.flux_depths
+        if fd is not None and np.any(fd <= z0):
+            raise ValueError(f"heat-flux plates at {fd * 100} cm are not below the measured top "
+                             f"at {z0 * 100:g} cm")
+        return replace(
+            self, depths=self.depths[1:] - z0, T_obs=self.T_obs[:, 1:], bottom_depth=self.bottom_depth - z0,
+            T_top=self.T_obs[:, 0], depth_offset=z0,
+            flux_depths=None if fd is None else fd - z0,
+        )
 
     def select_rows(self, rows) -> Measurements:
         """The same case restricted to observation ``rows`` (must keep row 0, the initial state)."""
@@ -74,7 +122,7 @@ class Measurements:
         return replace(
             self, t=self.t[rows], T_air=self.T_air[rows], q_net=self.q_net[rows],
             wind=pick(self.wind), rain=pick(self.rain), T_obs=self.T_obs[rows],
-            T_bottom=self.T_bottom[rows],
+            T_bottom=self.T_bottom[rows], G_obs=pick(self.G_obs), T_top=pick(self.T_top),
         )
 
     def data_hash(self) -> str:
@@ -85,4 +133,10 @@ class Measurements:
         for arr in (self.wind, self.rain):
             h.update(b"none" if arr is None else np.ascontiguousarray(arr, float).tobytes())
         h.update(repr((float(self.bottom_depth), float(self.sigma))).encode())
+        if self.G_obs is not None:  # runs on data without plates keep their hash
+            for arr in (self.flux_depths, self.G_obs):
+                h.update(np.ascontiguousarray(arr, dtype=np.float64).tobytes())
+        if self.T_top is not None:
+            h.update(np.ascontiguousarray(self.T_top, dtype=np.float64).tobytes())
+            h.update(repr(float(self.depth_offset)).encode())
         return h.hexdigest()

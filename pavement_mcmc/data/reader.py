@@ -11,6 +11,8 @@ column         unit          meaning
 ``wind``       m s-1         wind speed (optional)
 ``rain``       mm per step   precipitation (optional)
 ``T_<d>cm``    degC          ground temperature at depth ``d`` cm (``T_2.5cm``)
+``G_<d>cm``    W m-2         heat-flux plate at depth ``d`` cm, positive downward
+                             (optional; a second kind of observation)
 =============  ============  ==============================================
 
 Every problem with the input raises :class:`DataError` naming the file, the column and the row
@@ -52,6 +54,9 @@ __all__ = ["DataError", "read_csv_case"]
 _ROLES = ("time", "T_air", "q_net", "wind", "rain")
 _REQUIRED = ("time", "T_air", "q_net")
 _DEPTH_RE = re.compile(r"^T_(\d+(?:\.\d*)?|\.\d+)cm$")
+_FLUX_RE = re.compile(r"^G_(\d+(?:\.\d*)?|\.\d+)cm$")
+#: |G| above this (W m-2) is rejected as physically implausible for a ground heat flux
+G_MAX = 1000.0
 
 
 def read_csv_case(
@@ -129,6 +134,13 @@ def read_csv_case(
     rain = column(roles["rain"]) if "rain" in roles else None
     T_obs = np.column_stack([column(sensors[d]) for d in depth_obs])
     T_bottom = column(sensors[depth_bot])
+    plates = sorted((float(k[2:-2]), k) for k in roles if k.startswith("G_"))
+    G_obs = np.column_stack([column(roles[k]) for _, k in plates]) if plates else None
+    for j, (_, k) in enumerate(plates):
+        _check_range(table, roles[k], G_obs[:, j], idx, -G_MAX, G_MAX, "W m-2")
+        if plates[j][0] / 100.0 >= depth_bot / 100.0:
+            raise table.error(f"heat-flux plate at {plates[j][0]:g} cm is not above the bottom "
+                              f"boundary at {depth_bot:g} cm", k)
 
     for col, arr in [(roles["T_air"], T_air), (sensors[depth_bot], T_bottom)] + [
         (sensors[d], T_obs[:, k]) for k, d in enumerate(depth_obs)
@@ -149,6 +161,8 @@ def read_csv_case(
         depths=np.asarray(depth_obs, float) / 100.0,
         T_obs=T_obs,
         T_bottom=T_bottom,
+        flux_depths=np.asarray([d for d, _ in plates], float) / 100.0 if plates else None,
+        G_obs=G_obs,
     )
     for arr in arrays.values():
         if arr is not None:
@@ -213,11 +227,15 @@ def _read_table(path: str) -> _Table:
 
 
 def _role_of(name: str) -> str | float | None:
-    """Contract role of a column name: a role string, a depth in cm, or None."""
+    """Contract role of a column name: a role string (``G_<d>cm`` for a heat-flux plate, in its
+    canonical spelling), a sensor depth in cm, or None."""
     if name in _ROLES:
         return name
     m = _DEPTH_RE.match(name)
-    return float(m.group(1)) if m else None
+    if m:
+        return float(m.group(1))
+    m = _FLUX_RE.match(name)
+    return f"G_{float(m.group(1)):g}cm" if m else None
 
 
 def _resolve_columns(
@@ -242,7 +260,7 @@ def _resolve_columns(
         if not isinstance(role, str) or _role_of(role) is None:
             raise DataError(
                 f"{path}, column {src!r} is mapped to {role!r}, which is not a role; valid roles "
-                f"are {', '.join(_ROLES)} and T_<depth>cm (e.g. T_2.5cm)"
+                f"are {', '.join(_ROLES)}, T_<depth>cm (e.g. T_2.5cm) and G_<depth>cm (a heat-flux plate)"
             )
     roles: dict[str, int] = {}
     sensors: dict[float, int] = {}

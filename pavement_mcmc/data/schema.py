@@ -33,7 +33,12 @@ DATA_KEYS = (
     "bottom_cm",
     "max_gap_fill",
     "columns",
+    "plates",
+    "plate_sigma",
+    "plate_rel_sigma",
 )
+#: valid values of [model] top: the surface energy balance, or the shallowest sensor measured
+TOPS = ("surface", "measured")
 #: Valid keys of [grid] and their defaults (dx in m, dt in s; None = the solver's measured default).
 GRID_DEFAULTS: dict[str, Any] = {"dx": None, "dt": None, "scheme": "cn"}
 #: Valid keys of [sampler] and their defaults (None: the sampler chooses).
@@ -118,6 +123,9 @@ _DATA_TYPES = {
     "observed_cm": "numbers",
     "bottom_cm": "number",
     "max_gap_fill": "int>=0",
+    "plates": "bool",
+    "plate_sigma": "number>0",
+    "plate_rel_sigma": "number>=0",
     "columns": "table",
 }
 _GRID_TYPES = {"dx": "number>0", "dt": "number>0", "scheme": "str"}
@@ -176,6 +184,10 @@ def _validate(raw: dict, where: str) -> None:
             _check(where, f"sampler.{key}", sampler[key], kind)
 
     model = raw.get("model", {})
+    if "top" in model and model["top"] not in TOPS:
+        raise ConfigError(f"{where}: model.top = {model['top']!r}; valid: {', '.join(TOPS)}")
+    if "material" in model:
+        _check(where, "model.material", model["material"], "str")
     if "extensions" in model:
         _check(where, "model.extensions", model["extensions"], "strs")
     if "h" in model:

@@ -45,6 +45,14 @@ class Extension:
     #: :func:`pavement_mcmc.criticism.residuals.plain_signals` (e.g. ``"corr:q_net"``,
     #: ``"depth_growth"``); ``diagnose`` quotes them as evidence
     signals: tuple[str, ...] = ()
+    #: base parameters (``"kappa"``, ``"C"``, ``"h"`` for every h piece) the hooks read besides
+    #: the effect's own; the gradient (the solver's adjoint) then differentiates the
+    #: coefficients with respect to them too
+    reads: tuple[str, ...] = ()
+    #: False if the solver's adjoint cannot give this effect's gradient (e.g. a conductivity
+    #: that depends on temperature makes the solve nonlinear); the likelihood's gradient is then
+    #: taken by central differences of whole solves
+    adjoint: bool = True
 
     def parameters(self, meas) -> list[Parameter]:
         """The effect's parameters, with values at the *null* (no-effect) point where one exists."""
@@ -71,6 +79,20 @@ class Extension:
     def observe(self, pred: np.ndarray, T_nodes: np.ndarray, p: dict[str, np.ndarray], model):
         """Return the predicted sensor temperatures, possibly changed."""
         return pred
+
+    # Gradients (optional). The material and surface hooks need nothing more: the model
+    # differentiates the coefficients they produce with respect to the effect's parameters
+    # (and to ``reads``) by finite differences, which costs no solve. An ``observe`` hook needs
+    # its vector-Jacobian product below, else the gradient falls back to whole solves.
+    observe_vjp = None
+    """``observe_vjp(g_pred, T_nodes, p, model) -> (g_pred_in, g_T_nodes, {name: (n_sets,)})``:
+    the cotangents of the predictions before the hook, the extra cotangents of the nodal
+    temperatures, and the gradients of the effect's parameters, given ``g_pred`` after it."""
+    surface_vjp = None
+    """``surface_vjp(g_h, g_q, h_in, q_in, p, model) -> (g_h_in, g_q_in, {name: (n_sets,)})``
+    (optional, for a surface hook that reads h: exact and cheaper than finite differences over
+    every h piece): the cotangents of ``coeffs.h`` and ``coeffs.q`` before the hook (whose
+    values there were ``h_in``, ``q_in``) and the gradients of the effect's parameters."""
 
     def __repr__(self) -> str:
         return f"{type(self).__name__}()"

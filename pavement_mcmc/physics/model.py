@@ -1,6 +1,15 @@
-"""The forward model: parameters -> solver coefficients -> nodal temperatures -> sensor predictions."""
+"""The forward model: parameters -> solver coefficients -> nodal temperatures -> observations.
+
+Observations are the temperatures at the observed sensors and, where the case has heat-flux
+plates (``G_<d>cm`` columns), the conductive heat flux at the plates times a calibration factor
+per plate (``plate_<label>``, plates read within +-20-30 %). With a measured top
+(:meth:`~pavement_mcmc.data.Measurements.with_measured_top`) the shallowest sensor is a Dirichlet
+boundary and the surface energy balance (h, net radiation) drops out.
+"""
 
 from __future__ import annotations
+
+from dataclasses import replace
 
 import numpy as np
 
@@ -10,11 +19,21 @@ from ..parameters.priors import Flat, GMRFSmoothness, Rayleigh, TruncatedNormal
 from ..solver import Coefficients, Forcing, Grid, solve, solve_vjp
 from .base import Extension
 from .hbasis import HBasis
-from .observe import interpolate, interpolate_transpose, interpolation_weights
+from .observe import (
+    flux_weights,
+    heat_flux,
+    heat_flux_vjp,
+    interpolate,
+    interpolate_transpose,
+    interpolation_weights,
+)
 from .registry import get_extension
 
 #: the paper's "literature values" (h W m-2 K-1, C J m-3 K-1, kappa W m-1 K-1)
 LITERATURE = {"kappa": 2.27, "C": 2.10e6, "h": 10.0}
+#: prior of a heat-flux plate's calibration factor: plates read within +-20-30 %
+PLATE_PRIOR = TruncatedNormal(1.0, 0.25, 0.3, 3.0)
+_FD_REL = 1e-6  # relative step of the coefficient derivatives in solve_vjp
 
 
 class Model:
@@ -22,12 +41,13 @@ class Model:
 
     Parameters
     ----------
-    meas : the case's measurements.
+    meas : the case's measurements (with ``T_top`` set: a measured top boundary).
     grid : the solver grid (``Grid.build(meas, ...)``).
-    h_basis : the h(t) discretisation.
+    h_basis : the h(t) discretisation (unused with a measured top).
     extensions : extension instances or names (see :mod:`pavement_mcmc.physics.catalogue`).
     scheme : solver scheme, ``"cn"`` (default) or ``"dff"``.
     gamma0 : Rayleigh scale of the smoothness precision when ``h_basis.smooth``, m4 K2 W-2.
+    plates : observe the heat-flux plates of ``meas`` (if it has any).
     """
 
     def __init__(
@@ -38,6 +58,7 @@ class Model:
         extensions=(),
         scheme: str = "cn",
         gamma0: float = 2.22,
+        plates: bool = True,
     ):
         self.meas = meas
         self.grid = grid
@@ -48,13 +69,22 @@ class Model:
             raise ValueError(f"extension listed twice: {names}")
         self.scheme = scheme
         self.gamma0 = gamma0
+        self.top_measured = meas.T_top is not None
         self.forcing = Forcing.from_measurements(meas, grid)
         self._obs_i, self._obs_w = interpolation_weights(grid.x, meas.depths)
-        self.replaces_h = any(e.replaces_h for e in self.extensions)
+        self.plates = bool(plates) and meas.n_plates > 0
+        if self.plates:
+            self._flux_c, self._flux_w = flux_weights(grid.x, meas.flux_depths)
+        self.replaces_h = self.top_measured or any(e.replaces_h for e in self.extensions)
         if sum(e.replaces_h for e in self.extensions) > 1:
             raise ValueError("two extensions both replace h(t): " + str(names))
 
     # -- parameters --------------------------------------------------------------------------
+    @property
+    def plate_names(self) -> list[str]:
+        """Calibration-factor parameter of each observed plate, e.g. ``plate_G5cm``."""
+        return [f"plate_{lab}" for lab in self.meas.plate_labels] if self.plates else []
+
     def parameter_space(self) -> ParameterSpace:
         """Every parameter of the model with the paper's priors; extensions add theirs.
 
@@ -71,14 +101,15 @@ class Model:
         if not self.replaces_h:
             hp = self.h_basis.parameters()
             if self.h_basis.smooth:
-                from dataclasses import replace
-
                 hp = [replace(p, prior=Flat()) for p in hp]
                 params.append(Parameter("gamma", self.gamma0, 0.0, 1e4,
                                         prior=Rayleigh(self.gamma0), unit="m4 K2 W-2",
                                         description="smoothness precision of h(t)"))
                 joint.append(GMRFSmoothness(self.h_basis.names, "gamma"))
             params += hp
+        params += [Parameter(n, 1.0, 0.3, 3.0, prior=PLATE_PRIOR, unit="-", group="plate",
+                             description="heat-flux plate calibration factor (reading / true flux)")
+                   for n in self.plate_names]
         owner = {p.name: "base model" for p in params}
         for ext in self.extensions:
             for p in ext.parameters(self.meas):
@@ -92,19 +123,23 @@ class Model:
         return ParameterSpace(params, joint)
 
     # -- forward -----------------------------------------------------------------------------
-    def coefficients(self, p: dict[str, np.ndarray]) -> Coefficients:
-        """Solver coefficients for a batch of parameter sets."""
+    def coefficients(self, p: dict[str, np.ndarray], record: dict | None = None) -> Coefficients:
+        """Solver coefficients for a batch of parameter sets (``record``: gets the (h, q) that
+        enter each surface hook with a ``surface_vjp``, by extension name)."""
         kappa = np.asarray(p["kappa"], float)
         n_sets = kappa.size
         if self.replaces_h:
             h = np.zeros((n_sets, self.meas.n_obs - 1))
         else:
             h = self.h_basis.evaluate(p)
-        q = np.broadcast_to(self.meas.q_net, (n_sets, self.meas.n_obs)).copy()
+        q = (np.zeros((n_sets, self.meas.n_obs)) if self.top_measured
+             else np.broadcast_to(self.meas.q_net, (n_sets, self.meas.n_obs)).copy())
         coeffs = Coefficients.uniform(kappa, np.asarray(p["C"], float), h, q, self.grid.x.size)
         for ext in self.extensions:
             ext.material(coeffs, p, self)
         for ext in self.extensions:
+            if record is not None and ext.surface_vjp is not None:
+                record[ext.name] = (coeffs.h.copy(), coeffs.q.copy())
             ext.surface(coeffs, p, self)
         return coeffs
 
@@ -112,30 +147,17 @@ class Model:
         """Nodal temperatures, shape (n_sets, n_obs, n_nodes), degC."""
         return solve(self.grid, self.forcing, self.coefficients(p), scheme=self.scheme)
 
-    @property
-    def has_gradient(self) -> bool:
-        """Whether :meth:`solve_vjp` is available: the adjoint covers the base model (uniform
-        kappa and C, h from the basis) with the Crank–Nicolson scheme, no extension."""
-        return not self.extensions and self.scheme == "cn"
+    def surface_flux(self, T_nodes: np.ndarray, coeffs: Coefficients) -> np.ndarray:
+        """Heat flux into the ground at the top (n_sets, n_obs), W m-2: h (T_air - T_s) + q of
+        the surface balance (h of the interval ending at each time; the first row uses the
+        first interval), or ``-kappa dT/dz`` of the top cell with a measured top."""
+        if self.top_measured:
+            x = self.grid.x
+            return coeffs.kappa[:, None, 0] * (T_nodes[..., 0] - T_nodes[..., 1]) / (x[1] - x[0])
+        h = np.concatenate([coeffs.h[:, :1], coeffs.h], axis=1)
+        return h * (self.forcing.T_air[None, :] - T_nodes[..., 0]) + coeffs.q
 
-    def solve_vjp(self, p: dict[str, np.ndarray], cotangent_fn) -> tuple[np.ndarray, list, np.ndarray]:
-        """Nodal temperatures and the gradient of a loss with respect to the parameters.
-
-        ``cotangent_fn(T_nodes) -> G`` gives d loss / d T_nodes (same shape); returns
-        ``(T_nodes, names, grad)`` with ``grad`` (n_sets, len(names)) the gradient with respect
-        to kappa, C and every h piece (``names``), by the discrete adjoint of the solver
-        (:mod:`pavement_mcmc.solver.adjoint`): about the cost of three solves.
-        """
-        if not self.has_gradient:
-            raise NotImplementedError("the adjoint covers the base model with the 'cn' scheme only")
-        out, g = solve_vjp(self.grid, self.forcing, self.coefficients(p), cotangent_fn)
-        cols = [g["kappa"].sum(axis=1)[:, None], g["C"][:, :-1].sum(axis=1)[:, None]]
-        names = ["kappa", "C"]
-        if not self.replaces_h:
-            cols.append(g["h"] @ self.h_basis.W)
-            names += list(self.h_basis.names)
-        return out, names, np.concatenate(cols, axis=1)
-
+    # -- observations ------------------------------------------------------------------------
     def observe_nominal(self, T_nodes: np.ndarray) -> np.ndarray:
         """Temperatures at the sensors' nominal depths (n_sets, n_obs, n_sensors)."""
         return interpolate(T_nodes, self._obs_i, self._obs_w)
@@ -152,10 +174,128 @@ class Model:
             pred = ext.observe(pred, T_nodes, p, self)
         return pred
 
+    def observe_flux(self, T_nodes: np.ndarray, coeffs: Coefficients,
+                     p: dict[str, np.ndarray]) -> np.ndarray | None:
+        """Plate readings (n_sets, n_obs, n_plates), W m-2 (calibration factor x conductive flux
+        at the plate), or None without plates."""
+        if not self.plates:
+            return None
+        f = np.stack([np.asarray(p[n], float) for n in self.plate_names], axis=-1)
+        return f[:, None, :] * heat_flux(T_nodes, coeffs.kappa, self.grid.x, self._flux_c,
+                                         self._flux_w)
+
     def predict(self, p: dict[str, np.ndarray]) -> np.ndarray:
         """Predicted temperatures at the observed sensors, (n_sets, n_obs, n_sensors), degC."""
         return self.observe(self.solve(p), p)
 
+    # -- gradient ----------------------------------------------------------------------------
+    @property
+    def has_gradient(self) -> bool:
+        """Whether :meth:`solve_vjp` is available: the Crank–Nicolson scheme, and extensions
+        whose coefficients do not depend on temperature (``adjoint``) and whose ``observe``
+        hooks, if any, give their vector-Jacobian product."""
+        for ext in self.extensions:
+            overrides_observe = type(ext).observe is not Extension.observe
+            if not ext.adjoint or (overrides_observe and ext.observe_vjp is None):
+                return False
+        return self.scheme == "cn"
+
+    def solve_vjp(self, p: dict[str, np.ndarray], cotangent_fn) -> tuple[np.ndarray, list, np.ndarray]:
+        """Nodal temperatures and the gradient of a loss with respect to the parameters.
+
+        ``cotangent_fn(T_nodes, coeffs) -> (G, direct)`` gives d loss / d T_nodes (same shape)
+        and ``direct``, the loss's own derivatives: ``{"kappa": (n_sets, n_cells)}`` for the
+        cell conductivities it reads (flux observations) and ``{name: (n_sets,)}`` for
+        parameters. Returns ``(T_nodes, names, grad)``, ``grad`` (n_sets, len(names)) with
+        respect to every parameter the model has, by the solver's discrete adjoint (about the
+        cost of three solves); extensions' coefficients are differentiated by finite
+        differences of :meth:`coefficients` (no solve).
+        """
+        if not self.has_gradient:
+            raise NotImplementedError("no adjoint for this model (scheme or extensions)")
+        record: dict = {}
+        coeffs = self.coefficients(p, record)
+        direct: dict = {}
+
+        def cot(T_nodes):
+            G, d = cotangent_fn(T_nodes, coeffs)
+            direct.update(d)
+            return G
+
+        out, g = solve_vjp(self.grid, self.forcing, coeffs, cot)
+        g = dict(g)
+        if "kappa" in direct:
+            g["kappa"] = g["kappa"] + direct.pop("kappa")
+        grads: dict[str, np.ndarray] = {}
+        g_final = dict(g)  # the finite differences below act on the final coefficients
+        for ext in reversed(self.extensions):  # back through the surface hooks that say how
+            if ext.surface_vjp is not None:
+                g["h"], g["q"], own = ext.surface_vjp(g["h"], g["q"], *record[ext.name], p, self)
+                grads.update(own)
+        read = {r for e in self.extensions if e.surface_vjp is None for r in e.reads}
+        if "kappa" not in read:
+            grads["kappa"] = g["kappa"].sum(axis=1)
+        if "C" not in read:
+            grads["C"] = g["C"][:, :-1].sum(axis=1)
+        if not self.replaces_h and "h" not in read:
+            grads.update(zip(self.h_basis.names, (g["h"] @ self.h_basis.W).T, strict=True))
+        fd = [n for n in ("kappa", "C") if n in read]
+        if "h" in read and not self.replaces_h:
+            fd += list(self.h_basis.names)
+        own = {q.name for e in self.extensions if e.surface_vjp is None
+               for q in e.parameters(self.meas)}
+        fd += [n for n in p if n in own]
+        grads.update(self._coefficient_vjp(p, fd, g_final))
+        for name, v in direct.items():
+            grads[name] = grads.get(name, 0.0) + v
+        names = list(grads)
+        return out, names, np.stack([np.broadcast_to(grads[n], out.shape[:1]) for n in names], axis=1)
+
+    def _coefficient_vjp(self, p, names, g) -> dict[str, np.ndarray]:
+        """``sum <g, d coeffs / d p_n>`` for each name, by central differences of the
+        coefficients (cheap: no solve)."""
+        out = {}
+        for n in names:
+            v = np.asarray(p[n], float)
+            step = _FD_REL * np.maximum(np.abs(v), 1e-3)
+            total = np.zeros(v.shape)
+            cp = self.coefficients({**p, n: v + step})
+            cm = self.coefficients({**p, n: v - step})
+            for arr in ("kappa", "C", "h", "q"):
+                d = (getattr(cp, arr) - getattr(cm, arr)) / (2.0 * step[:, None])
+                total += np.sum(g[arr] * d, axis=1)
+            out[n] = total
+        return out
+
+    def observe_vjp(self, g_pred: np.ndarray, T_nodes: np.ndarray,
+                    p: dict[str, np.ndarray]) -> tuple[np.ndarray, dict[str, np.ndarray]]:
+        """Adjoint of :meth:`observe`: prediction cotangents -> nodal cotangents and the
+        gradients of the observe hooks' parameters."""
+        gT = np.zeros(T_nodes.shape)
+        direct: dict[str, np.ndarray] = {}
+        for ext in reversed(self.extensions):
+            if ext.observe_vjp is None:
+                continue
+            g_pred, gT_ext, d = ext.observe_vjp(g_pred, T_nodes, p, self)
+            gT += gT_ext
+            direct.update(d)
+        return gT + self.observe_nominal_transpose(g_pred), direct
+
+    def observe_flux_vjp(self, g_flux: np.ndarray, T_nodes: np.ndarray, coeffs: Coefficients,
+                         p: dict[str, np.ndarray]) -> tuple[np.ndarray, dict[str, np.ndarray]]:
+        """Adjoint of :meth:`observe_flux`: plate cotangents -> (nodal cotangents, direct
+        gradients: the cell conductivities ``"kappa"`` and the calibration factors)."""
+        raw = heat_flux(T_nodes, coeffs.kappa, self.grid.x, self._flux_c, self._flux_w)
+        f = np.stack([np.asarray(p[n], float) for n in self.plate_names], axis=-1)
+        gT, gk = heat_flux_vjp(g_flux * f[:, None, :], T_nodes, coeffs.kappa, self.grid.x,
+                               self._flux_c, self._flux_w)
+        direct = {"kappa": gk}
+        for j, n in enumerate(self.plate_names):
+            direct[n] = np.sum(g_flux[..., j] * raw[..., j], axis=1)
+        return gT, direct
+
     def describe(self) -> str:
         ext = ", ".join(e.name for e in self.extensions) or "none"
-        return f"conduction + {len(self.h_basis.names)} h pieces; extensions: {ext}"
+        top = "measured top" if self.top_measured else f"{len(self.h_basis.names)} h pieces"
+        plates = f", {len(self.plate_names)} flux plate(s)" if self.plates else ""
+        return f"conduction + {top}{plates}; extensions: {ext}"

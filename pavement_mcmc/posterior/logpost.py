@@ -11,6 +11,12 @@ interpolated at t = 0), so it carries no information and is left out of the like
 With ``input_noise`` set (:mod:`pavement_mcmc.posterior.input_noise`), the noise of the bottom boundary
 and initial temperatures is integrated out: the residuals are whitened by the resulting
 covariance instead of divided by sigma.
+
+Heat-flux plates (a model with ``plates``) are a second kind of observation: independent
+Gaussian errors with a sd per reading, ``flux_sd`` (an absolute floor and a share of the
+reading; the plate's systematic calibration error is the model's ``plate_<label>`` factor).
+Their whitened residuals follow the temperatures' in :meth:`LogPosterior.whitened`, the one
+misfit every other module uses.
 """
 
 from __future__ import annotations
@@ -32,7 +38,7 @@ class LogPosterior:
     space : the parameter space (free parameters, bounds, priors, joint priors).
     """
 
-    def __init__(self, model: Model, space: ParameterSpace):
+    def __init__(self, model: Model, space: ParameterSpace, flux_sd: np.ndarray | None = None):
         self.model = model
         self.space = space
         self.meas = model.meas
@@ -41,6 +47,13 @@ class LogPosterior:
         self.n_data = self.obs.size
         self.input_noise = None  # an InputNoise, or None: boundary and initial data exact
         self._grad_cols = None  # (model gradient names, source and free columns), cached
+        self.flux_obs = self.flux_sd = None
+        if model.plates:
+            self.flux_obs = model.meas.G_obs[1:]  # (n_obs-1, n_plates)
+            sd = default_flux_sd(self.flux_obs) if flux_sd is None else np.asarray(flux_sd, float)
+            self.flux_sd = np.broadcast_to(sd, self.flux_obs.shape).copy()
+            if not np.all(self.flux_sd > 0):
+                raise ValueError("flux_sd must be > 0 for every plate reading")
 
     @property
     def names(self) -> list[str]:
@@ -48,7 +61,9 @@ class LogPosterior:
 
     @property
     def blob_names(self) -> list[str]:
-        return [f"rmse_{lab}" for lab in self.meas.sensor_labels]
+        """RMSE per sensor (degC), then per plate (W m-2)."""
+        plates = self.meas.plate_labels if self.flux_obs is not None else []
+        return [f"rmse_{lab}" for lab in [*self.meas.sensor_labels, *plates]]
 
     @property
     def ndim(self) -> int:
@@ -61,6 +76,42 @@ class LogPosterior:
     def residuals(self, theta: np.ndarray) -> np.ndarray:
         """Predicted minus observed temperatures, (n_sets, n_obs - 1, n_sensors), degC."""
         return self.predict(theta)[:, 1:, :] - self.obs
+
+    def data_residuals(self, theta: np.ndarray) -> tuple[np.ndarray, np.ndarray | None]:
+        """Temperature residuals (as :meth:`residuals`) and plate residuals (n_sets, n_obs - 1,
+        n_plates) in W m-2 (None without plates), from one solve."""
+        p = self.space.expand(theta)
+        model = self.model
+        if self.flux_obs is None:
+            return model.predict(p)[:, 1:, :] - self.obs, None
+        coeffs = model.coefficients(p)
+        from ..solver import solve
+
+        T_nodes = solve(model.grid, model.forcing, coeffs, scheme=model.scheme)
+        rT = model.observe(T_nodes, p)[:, 1:, :] - self.obs
+        return rT, model.observe_flux(T_nodes, coeffs, p)[:, 1:, :] - self.flux_obs
+
+    def whiten(self, rT: np.ndarray, rG: np.ndarray | None = None) -> np.ndarray:
+        """All whitened residuals (..., n_data + n_flux): the temperatures'
+        (:meth:`standardized_residuals`), then the plates' divided by their sd."""
+        z = self.standardized_residuals(rT)
+        if rG is None:
+            return z
+        zG = (rG / self.flux_sd).reshape(*rG.shape[:-2], -1)
+        return np.concatenate([z, zG], axis=-1)
+
+    def whitened(self, theta: np.ndarray) -> np.ndarray:
+        """The whitened residuals of ``theta`` (n_sets, n_data + n_flux): the one misfit."""
+        return self.whiten(*self.data_residuals(theta))
+
+    def loglik_blobs(self, theta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Log-likelihood (n_sets,) and blobs (RMSE per sensor, then per plate) of ``theta``."""
+        rT, rG = self.data_residuals(theta)
+        ll = self._loglik_whitened(self.whiten(rT, rG))
+        rmse = np.sqrt(np.mean(rT * rT, axis=1))
+        if rG is not None:
+            rmse = np.concatenate([rmse, np.sqrt(np.mean(rG * rG, axis=1))], axis=1)
+        return ll, rmse
 
     def standardized_residuals(self, r: np.ndarray) -> np.ndarray:
         """Whitened residuals (..., n_data) of residual arrays (..., n_obs-1, n_sensors):
@@ -77,7 +128,11 @@ class LogPosterior:
     def _loglik_whitened(self, z: np.ndarray) -> np.ndarray:
         logdet = (self.n_data * np.log(self.sigma**2) if self.input_noise is None
                   else self.input_noise.logdet)
-        return -0.5 * (np.sum(z * z, axis=-1) + logdet + self.n_data * _LOG_2PI)
+        n = self.n_data
+        if self.flux_sd is not None and z.shape[-1] > self.n_data:
+            logdet = logdet + 2.0 * float(np.sum(np.log(self.flux_sd)))
+            n += self.flux_sd.size
+        return -0.5 * (np.sum(z * z, axis=-1) + logdet + n * _LOG_2PI)
 
     def _weighted(self, z: np.ndarray) -> np.ndarray:
         """``W^T z`` for whitened residuals ``z`` (..., n_data) (``W = Sigma^(-1/2)``, symmetric)."""
@@ -106,17 +161,32 @@ class LogPosterior:
         model = self.model
         keep = {}
 
-        def cotangent(T_nodes):
+        def cotangent(T_nodes, coeffs):
             pred = model.observe(T_nodes, p)
             r = pred[:, 1:, :] - self.obs
             z = self.standardized_residuals(r)
-            ll = self._loglik_whitened(z)
+            rG = None
+            if self.flux_obs is not None:
+                G = model.observe_flux(T_nodes, coeffs, p)
+                rG = G[:, 1:, :] - self.flux_obs
+                zG = (rG / self.flux_sd).reshape(rG.shape[0], -1)
+                ll = self._loglik_whitened(np.concatenate([z, zG], axis=1))
+            else:
+                ll = self._loglik_whitened(z)
             ok = np.isfinite(ll)
             keep["ll"] = np.where(ok, ll, -np.inf)
             keep["rmse"] = np.sqrt(np.mean(r * r, axis=1))
             gp = np.zeros_like(pred)
             gp[:, 1:, :] = -self._weighted(np.where(ok[:, None], z, 0.0)).reshape(r.shape)
-            return model.observe_nominal_transpose(gp)  # rows with a non-finite fit: 0
+            gT, direct = model.observe_vjp(gp, T_nodes, p)  # rows with a non-finite fit: 0
+            if rG is not None:
+                keep["rmse"] = np.concatenate([keep["rmse"], np.sqrt(np.mean(rG * rG, axis=1))], axis=1)
+                gG = np.zeros_like(G)
+                gG[:, 1:, :] = -np.where(ok[:, None, None], rG, 0.0) / self.flux_sd**2
+                gTf, df = model.observe_flux_vjp(gG, T_nodes, coeffs, p)
+                gT += gTf
+                direct.update(df)
+            return gT, direct
 
         _, names, G = model.solve_vjp(p, cotangent)
         if self._grad_cols is None or self._grad_cols[0] != names:
@@ -138,9 +208,9 @@ class LogPosterior:
         X[:, 1 + np.arange(d), np.arange(d)] = up
         X[:, 1 + d + np.arange(d), np.arange(d)] = down
         with np.errstate(all="ignore"):
-            r = self.residuals(X.reshape(-1, d))
-            ll = self.log_likelihood_from_residuals(r).reshape(n, 2 * d + 1)
-            rmse = np.sqrt(np.mean(r * r, axis=1)).reshape(n, 2 * d + 1, -1)[:, 0]
+            ll, rmse = self.loglik_blobs(X.reshape(-1, d))
+            ll = ll.reshape(n, 2 * d + 1)
+            rmse = rmse.reshape(n, 2 * d + 1, -1)[:, 0]
             grad = (ll[:, 1:d + 1] - ll[:, d + 1:]) / (up - down)
         return ll[:, 0], np.where(up > down, grad, 0.0), rmse
 
@@ -158,12 +228,10 @@ class LogPosterior:
         lp = self.space.log_prior(theta)
         ok = np.isfinite(lp)
         out = np.full(n_sets, -np.inf)
-        blobs = np.full((n_sets, self.meas.n_sensors), np.inf)
+        blobs = np.full((n_sets, len(self.blob_names)), np.inf)
         if ok.any():
             with np.errstate(all="ignore"):
-                r = self.residuals(theta[ok])
-                ll = self.log_likelihood_from_residuals(r)
-                rmse = np.sqrt(np.mean(r * r, axis=1))
+                ll, rmse = self.loglik_blobs(theta[ok])
             good = np.isfinite(ll)
             vals = np.where(good, lp[ok] + ll, -np.inf)
             out[ok] = vals
@@ -173,3 +241,9 @@ class LogPosterior:
     def log_prob(self, theta: np.ndarray) -> np.ndarray:
         """Log-posterior only, (n_sets,)."""
         return self(theta)[0]
+
+
+def default_flux_sd(G_obs: np.ndarray, abs_sd: float = 2.0, rel_sd: float = 0.1) -> np.ndarray:
+    """Sd of each plate reading, W m-2: ``sqrt(abs_sd^2 + (rel_sd G)^2)`` (a floor and a share
+    of the reading; the calibration error is the separate factor parameter)."""
+    return np.sqrt(abs_sd**2 + (rel_sd * np.asarray(G_obs, float)) ** 2)

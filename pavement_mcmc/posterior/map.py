@@ -115,6 +115,8 @@ class ScaledResiduals:
         self.idx, self.scale = idx, scale
         self.priors = self.space.prior_residuals()
         self.n_evals = 0
+        self.n_res = posterior.obs.size + (0 if getattr(posterior, "flux_sd", None) is None
+                                           else posterior.flux_sd.size)
 
     def theta(self, Z: np.ndarray) -> np.ndarray:
         Z = np.atleast_2d(Z)
@@ -135,11 +137,10 @@ class ScaledResiduals:
         lo, hi = self.space.bounds()
         ok = np.all(np.isfinite(th) & (th >= lo) & (th <= hi), axis=1)
         self.n_evals += int(ok.sum())
-        n_res = self.post.obs.size
-        r = np.full((th.shape[0], n_res), 1e6)
+        r = np.full((th.shape[0], self.n_res), 1e6)
         if ok.any():
             with np.errstate(all="ignore"):
-                r[ok] = self.post.standardized_residuals(self.post.residuals(th[ok]))
+                r[ok] = self.post.whitened(th[ok])
         out = np.concatenate([r, self.priors(th, gamma)], axis=1)
         return np.where(np.isfinite(out), out, 1e6)
 

@@ -8,9 +8,10 @@ import numpy as np
 
 from ..parameters import ParameterSpace
 from ..physics import HBasis, Model
+from ..physics.materials import material
 from ..solver import Grid
 from .input_noise import InputNoise, input_jacobian
-from .logpost import LogPosterior
+from .logpost import LogPosterior, default_flux_sd
 from .map import find_map
 
 
@@ -50,8 +51,10 @@ def build_problem(cfg, extensions=None, h_spec: dict | None = None, *,
         :class:`~pavement_mcmc.posterior.input_noise.InputNoise` is used as is (a candidate
         model scored against a base model shares the base's data covariance).
     """
-    meas = cfg.measurements
     model_cfg = cfg.model
+    meas = cfg.measurements
+    if model_cfg.get("top", "surface") == "measured":
+        meas = meas.with_measured_top()
     grid_cfg = cfg.grid
     grid_kw = {k: grid_cfg[k] for k in ("dx", "dt") if grid_cfg.get(k) is not None}
     grid = Grid.build(meas, **grid_kw)
@@ -59,9 +62,16 @@ def build_problem(cfg, extensions=None, h_spec: dict | None = None, *,
     exts = model_cfg.get("extensions", []) if extensions is None else extensions
     gamma_prior = cfg.parameters.get("gamma", {}).get("prior", {})
     gamma0 = float(gamma_prior.get("scale", 2.22))
-    model = Model(meas, grid, basis, exts, scheme=grid_cfg.get("scheme", "cn"), gamma0=gamma0)
+    data = cfg.data
+    model = Model(meas, grid, basis, exts, scheme=grid_cfg.get("scheme", "cn"), gamma0=gamma0,
+                  plates=data.get("plates", True))
     space = model.parameter_space().configure(_known(cfg.parameters, model))
-    posterior = LogPosterior(model, space)
+    flux_sd = None
+    if model.plates:
+        flux_sd = default_flux_sd(meas.G_obs[1:], data.get("plate_sigma", 2.0),
+                                  data.get("plate_rel_sigma", 0.1))
+    posterior = LogPosterior(model, space, flux_sd)
+    material(model_cfg.get("material"))  # a ValueError listing the materials if unknown
     sigmas = input_sigmas(cfg.data, meas)
     ref = None
     if any(np.any(v > 0) for v in sigmas.values()):

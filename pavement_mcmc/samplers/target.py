@@ -101,6 +101,11 @@ class MarginalTarget:
         """Log-likelihood and blobs of points inside the bounds (one batched solve);
         ``evaluate`` is the sampler's log-posterior call (look-alike posteriors only)."""
         post = self.posterior
+        if hasattr(post, "loglik_blobs"):
+            with np.errstate(all="ignore"):
+                ll, rmse = post.loglik_blobs(X)
+            good = np.isfinite(ll)
+            return np.where(good, ll, -np.inf), np.where(good[:, None], rmse, np.inf)
         if hasattr(post, "residuals") and hasattr(post, "log_likelihood_from_residuals"):
             with np.errstate(all="ignore"):
                 r = post.residuals(X)

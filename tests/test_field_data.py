@@ -1,0 +1,62 @@
+"""Field records: heat-flux plate columns, a measured top boundary, the real grass record."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from pavement_mcmc.data import DataError, read_csv_case
+
+
+def _csv(tmp_path, header, rows):
+    p = tmp_path / "m.csv"
+    p.write_text(",".join(header) + "\n" + "\n".join(",".join(map(str, r)) for r in rows) + "\n")
+    return p
+
+
+def _rows(n=6, g=None):
+    out = []
+    for i in range(n):
+        r = [f"2020-04-05T{i:02d}:00:00Z", 10 + i, 100 * i, 9.0 + 0.1 * i, 8.5, 8.0, 7.0]
+        if g is not None:
+            r.append(g(i))
+        out.append(r)
+    return out
+
+
+HEAD = ["time", "T_air", "q_net", "T_2cm", "T_5cm", "T_10cm", "T_50cm"]
+
+
+def test_plate_columns_are_a_second_kind_of_observation(tmp_path):
+    m = read_csv_case(_csv(tmp_path, HEAD + ["G_5cm"], _rows(g=lambda i: -10 + 5 * i)), sigma=0.1)
+    np.testing.assert_allclose(m.flux_depths, [0.05])
+    np.testing.assert_allclose(m.G_obs[:, 0], [-10, -5, 0, 5, 10, 15])
+    assert m.plate_labels == ["G5cm"] and m.n_sensors == 3
+    plain = read_csv_case(_csv(tmp_path, HEAD, _rows()), sigma=0.1)
+    assert plain.G_obs is None and plain.data_hash() != m.data_hash()
+
+
+def test_a_plate_below_the_bottom_or_out_of_range_is_refused(tmp_path):
+    with pytest.raises(DataError, match=r"column 'G_60cm'.*not above the bottom boundary at 50 cm"):
+        read_csv_case(_csv(tmp_path, HEAD + ["G_60cm"], _rows(g=lambda i: 1.0)), sigma=0.1)
+    with pytest.raises(DataError, match=r"column 'G_5cm', data row 3.*value 5000 outside"):
+        read_csv_case(_csv(tmp_path, HEAD + ["G_5cm"], _rows(g=lambda i: 5000 if i == 2 else 1)), sigma=0.1)
+
+
+def test_measured_top_shifts_the_depths_and_keeps_the_labels(tmp_path):
+    m = read_csv_case(_csv(tmp_path, HEAD + ["G_5cm"], _rows(g=lambda i: 1.0)), sigma=0.1)
+    top = m.with_measured_top()
+    np.testing.assert_allclose(top.depths, [0.03, 0.08])
+    assert top.sensor_labels == ["5cm", "10cm"] and top.plate_labels == ["G5cm"]
+    assert top.bottom_depth == pytest.approx(0.48) and top.depth_offset == pytest.approx(0.02)
+    np.testing.assert_array_equal(top.T_top, m.T_obs[:, 0])
+    x = np.array([0.0, 0.03, 0.48])
+    np.testing.assert_allclose(top.initial_profile(x), [m.T_obs[0, 0], m.T_obs[0, 1], m.T_bottom[0]])
+    assert top.data_hash() != m.data_hash()
+
+
+def test_the_real_record_reads_with_its_plate(grass_csv):
+    m = read_csv_case(grass_csv, sigma=0.1, window_hours=[168, 240])
+    assert m.n_obs == 145 and m.plate_labels == ["G5cm"]
+    np.testing.assert_allclose(m.depths * 100, [2, 5, 10, 20])
+    assert m.bottom_depth == pytest.approx(0.5)
