@@ -60,3 +60,17 @@ def test_the_real_record_reads_with_its_plate(grass_csv):
     assert m.n_obs == 145 and m.plate_labels == ["G5cm"]
     np.testing.assert_allclose(m.depths * 100, [2, 5, 10, 20])
     assert m.bottom_depth == pytest.approx(0.5)
+
+
+def test_run_summary_and_fit_output_state_the_plausibility(tiny_run):
+    from pavement_mcmc.runs import load_run
+    from pavement_mcmc.runs.tables import plausibility
+
+    text = (tiny_run / "summary.md").read_text()
+    assert "## Physical plausibility of the posterior means" in text
+    problem, _ = load_run(tiny_run)
+    found = plausibility(problem, [{"parameter": "kappa", "mean": 17.3},
+                                   {"parameter": "C", "mean": 40.8e6}])
+    assert [f.level for f in found] == ["alarm", "alarm"]
+    assert plausibility(problem, [{"parameter": "kappa", "mean": 1.3},
+                                  {"parameter": "C", "mean": 1.9e6}]) == []

@@ -49,7 +49,7 @@ def _report(args, out) -> int:
                "elapsed_s": res.elapsed, "acceptance": res.acceptance,
                "min_ess": float(np.min(res.ess)) if res.ess.size else None,
                "max_rhat": float(np.max(res.rhat)) if res.rhat.size else None,
-               "table": out.table}
+               "table": out.table, "plausibility": [f.text() for f in out.findings]}
     from ..runs import format_table
 
     shown = out.table if len(out.table) <= 12 else out.table[:6] + out.table[-3:]
@@ -57,6 +57,7 @@ def _report(args, out) -> int:
         format_table(shown)
         + ("\n(... see summary.md for every parameter)" if len(shown) < len(out.table) else ""),
         "",
+        *[f.text() for f in out.findings],
         f"{'converged' if res.converged else 'NOT converged'}: {res.reason}",
         f"{res.n_steps} steps, {res.n_evals} solves, {res.elapsed:.1f} s; "
         f"acceptance {res.acceptance:.2f}; wrote {out.run_dir}/chain.h5, summary.csv, summary.md",

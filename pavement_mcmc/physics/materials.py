@@ -44,7 +44,7 @@ MATERIALS: dict[str, Material] = {m.name: m for m in (
     Material("asphalt", (0.7, 2.0), (1.6e6, 2.4e6), (0.3e-6, 1.0e-6), "O87, I07"),
     Material("concrete", (1.0, 2.5), (1.8e6, 2.6e6), (0.4e-6, 1.3e-6), "O87, I07"),
     Material("dry sand", (0.2, 0.4), (1.2e6, 1.5e6), (0.13e-6, 0.33e-6), "O87, F81"),
-    Material("moist sand", (1.0, 2.6), (2.0e6, 3.0e6), (0.4e-6, 1.3e-6), "O87, F81"),
+    Material("moist sand", (1.0, 4.0), (2.0e6, 3.0e6), (0.4e-6, 1.6e-6), "O87, F81 (saturated quartz sand)"),
     Material("loam", (0.8, 1.8), (2.0e6, 3.2e6), (0.25e-6, 0.8e-6), "O87, H98"),
     Material("clay", (0.8, 1.6), (2.2e6, 3.4e6), (0.25e-6, 0.7e-6), "O87, H98"),
     Material("peat", (0.1, 0.5), (0.6e6, 3.8e6), (0.05e-6, 0.3e-6), "O87, F81"),

@@ -37,6 +37,7 @@ from pathlib import Path
 
 from .. import __version__
 from ..diagnostics.assessment import chains_note
+from ..runs.tables import plausibility
 from ..runs.view import RunView
 from .builtin import _diag_table, _figures, _stats_table, _urban_section
 from .markup import _CSS, _img, figure_to_base64, section_error  # noqa: F401  (figure_to_base64)
@@ -48,6 +49,17 @@ __all__ = [
     "registered_sections",
     "unregister_section",
 ]
+
+
+def _plausibility_box(view: RunView) -> str:
+    """The posterior means against the plausible ranges of ground materials (alarms red)."""
+    rows = [{"parameter": k, "mean": s["mean"]} for k, s in view.assessment.table.items()]
+    found = plausibility(view.problem, rows)
+    if not found:
+        return ("<p>Physical plausibility: every posterior mean is inside the ranges of pavement "
+                "and ground materials.</p>")
+    return "".join(f'<div class="{"verdict bad" if f.level == "alarm" else "warn"}">'
+                   f"{html.escape(f.text())}</div>" for f in found)
 
 
 def build_report(view: RunView, out: str | Path | None = None, dpi: int = 80,
@@ -80,7 +92,7 @@ def render(view: RunView, sections: list[tuple[str, SectionBuilder]], dpi: int =
                 f"of {a.n_steps} steps × {a.n_chains} walkers; acceptance after burn-in "
                 f"{a.acceptance:.3f}; drift of the kept log-posterior: trend z = "
                 f"{a.trend_z:.2f} ({'drifting' if a.drifting else 'no significant drift'}).</p>")
-    section("Convergence verdict", verdict)
+    section("Convergence verdict", verdict + _plausibility_box(view))
     section("Posterior statistics", _stats_table(view))
     section("Diagnostics", _diag_table(view) + (
         "<p class=cap>A parameter passes if the kept chain is ≥ 50 IACT long, ESS ≥ 100, "

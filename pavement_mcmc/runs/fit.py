@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import json
 import secrets
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -27,7 +27,7 @@ from ..samplers import get_sampler
 from ..storage import HDF5Store, read_run
 from .casefile import store_meta, write_case_record
 from .loop import RunResult, run_sampler
-from .tables import statistics_table, write_table
+from .tables import plausibility, statistics_table, write_plausibility, write_table
 
 
 @dataclass
@@ -38,6 +38,7 @@ class FitOutput:
     result: RunResult
     table: list[dict]
     problem: Problem
+    findings: list = field(default_factory=list)
 
 
 def _sampler_for(problem: Problem, cfg):
@@ -166,4 +167,6 @@ def _finish(run_dir: Path, problem: Problem, res: RunResult) -> FitOutput:
     (run_dir / "result.json").write_text(json.dumps(rec, indent=2, default=float))
     table = statistics_table(problem, data, res.burn_in)
     write_table(table, run_dir)
-    return FitOutput(run_dir, res, table, problem)
+    findings = plausibility(problem, table)
+    write_plausibility(findings, run_dir)
+    return FitOutput(run_dir, res, table, problem, findings)

@@ -10,6 +10,7 @@ import numpy as np
 
 from .. import diagnostics as dg
 from ..physics import LITERATURE
+from ..physics.materials import Finding, check_values
 from ..posterior import Problem
 from ..storage import RunData
 
@@ -90,3 +91,23 @@ def format_table(rows: list[dict]) -> str:
     lines = ["| " + " | ".join(keys) + " |", "|" + "---|" * len(keys)]
     lines += ["| " + " | ".join(fmt(r[k]) for k in keys) + " |" for r in rows]
     return "\n".join(lines)
+
+
+def plausibility(problem: Problem, rows: list[dict]) -> list[Finding]:
+    """Posterior means outside the plausible ranges (:mod:`pavement_mcmc.physics.materials`):
+    alarms outside every ground material, notes outside the declared ``[model] material``."""
+    mean = {r["parameter"]: r["mean"] for r in rows}
+    fixed = problem.space.value_dict()
+    kappa, C = mean.get("kappa", fixed.get("kappa")), mean.get("C", fixed.get("C"))
+    h = [v for k, v in mean.items() if problem.space[k].group == "h"]
+    declared = problem.cfg.model.get("material") if hasattr(problem.cfg, "model") else None
+    return check_values(kappa, C, h or None, declared)
+
+
+def write_plausibility(findings: list[Finding], run_dir: Path) -> None:
+    """Append the findings to ``summary.md`` (a line saying none were found otherwise)."""
+    lines = ["", "## Physical plausibility of the posterior means", ""]
+    lines += [f"- {f.text()}" for f in findings] or ["- every estimate is inside the plausible "
+                                                      "ranges of pavement and ground materials"]
+    with open(run_dir / "summary.md", "a", encoding="utf-8") as fh:
+        fh.write("\n".join(lines) + "\n")
