@@ -58,6 +58,7 @@ def _report(args, out) -> int:
         + ("\n(... see summary.md for every parameter)" if len(shown) < len(out.table) else ""),
         "",
         *[f.text() for f in out.findings],
+        *([f"note: {n}"] if (n := out.problem.model.boundary_note()) else []),
         f"{'converged' if res.converged else 'NOT converged'}: {res.reason}",
         f"{res.n_steps} steps, {res.n_evals} solves, {res.elapsed:.1f} s; "
         f"acceptance {res.acceptance:.2f}; wrote {out.run_dir}/chain.h5, summary.csv, summary.md",

@@ -67,6 +67,9 @@ def run(args) -> int:
     lines.append(f"condition number of the scaled sensitivity matrix: {ident.condition_number:.4g}")
     lines.append("verdict:")
     lines += [f"  - {v}" for v in ident.verdict]
+    note = problem.model.boundary_note()
+    if note:
+        lines.append(f"  - {note}")
     lines += [f"wrote {f1}", f"wrote {f2}"]
     payload = {
         "case": name,
@@ -75,6 +78,7 @@ def run(args) -> int:
         "sigma": sigma,
         "max_abs": {n: dict(zip(sens.sensors, mx[:, j].tolist())) for j, n in enumerate(names)},
         "identifiability": ident.to_dict(),
+        "boundary_note": note,
         "figures": [str(f1), str(f2)],
     }
     emit(args, payload, "\n".join(lines))

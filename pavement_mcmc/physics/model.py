@@ -294,6 +294,17 @@ class Model:
             direct[n] = np.sum(g_flux[..., j] * raw[..., j], axis=1)
         return gT, direct
 
+    def boundary_note(self) -> str | None:
+        """What a measured top implies for identifiability (None with a surface balance)."""
+        if not self.top_measured:
+            return None
+        base = ("measured top: the temperatures fix only the diffusivity kappa/C (a common scale "
+                "of kappa and C leaves them unchanged); ")
+        if self.plates:
+            return base + (f"kappa comes from the heat-flux plate(s) {', '.join(self.meas.plate_labels)} "
+                           "and its calibration factor's prior")
+        return base + "kappa needs a flux observation (a G_<depth>cm column) or a prior on kappa or C"
+
     def describe(self) -> str:
         ext = ", ".join(e.name for e in self.extensions) or "none"
         top = "measured top" if self.top_measured else f"{len(self.h_basis.names)} h pieces"

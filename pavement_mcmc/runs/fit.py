@@ -168,5 +168,5 @@ def _finish(run_dir: Path, problem: Problem, res: RunResult) -> FitOutput:
     table = statistics_table(problem, data, res.burn_in)
     write_table(table, run_dir)
     findings = plausibility(problem, table)
-    write_plausibility(findings, run_dir)
+    write_plausibility(findings, run_dir, problem.model.boundary_note())
     return FitOutput(run_dir, res, table, problem, findings)

@@ -104,10 +104,13 @@ def plausibility(problem: Problem, rows: list[dict]) -> list[Finding]:
     return check_values(kappa, C, h or None, declared)
 
 
-def write_plausibility(findings: list[Finding], run_dir: Path) -> None:
-    """Append the findings to ``summary.md`` (a line saying none were found otherwise)."""
+def write_plausibility(findings: list[Finding], run_dir: Path, note: str | None = None) -> None:
+    """Append the findings to ``summary.md`` (a line saying none were found otherwise), and
+    ``note`` (what the model's boundary implies)."""
     lines = ["", "## Physical plausibility of the posterior means", ""]
     lines += [f"- {f.text()}" for f in findings] or ["- every estimate is inside the plausible "
                                                       "ranges of pavement and ground materials"]
+    if note:
+        lines += ["", f"Note: {note}."]
     with open(run_dir / "summary.md", "a", encoding="utf-8") as fh:
         fh.write("\n".join(lines) + "\n")

@@ -1,0 +1,171 @@
+"""Criticism of the surface energy balance: is the energy the model pushes into the ground right?
+
+A model whose top is the surface energy balance sends ``h (T_air - T_s) + q_net`` into the
+ground. Over grass or wet ground most of the net radiation leaves as evapotranspiration
+instead; a model without such a sink compensates with an absurd kappa and C while kappa/C stays
+right. Three numbers tell the surface boundary apart from the conduction below it:
+
+1. the fitted ground heat flux at the surface and its share of the net radiation at midday
+   (over grass typically 5-20 %, bare soil 20-40 %, pavement 30-60 %);
+2. a fit with the shallowest sensor as a measured top (no surface balance at all): its
+   kappa/C is the conduction's own answer, and with a heat-flux plate its kappa too;
+3. the fitted flux at each plate against the plate's readings.
+
+If the full fit's kappa/C agrees with the measured-top fit's but its kappa (or its flux at the
+plate) does not, conduction is fine and the surface boundary is what is wrong.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..data import load_case, merge_overrides
+from ..physics import Extension
+from ..physics.materials import check_values
+from ..posterior import build_problem
+from .fitting import refit
+
+#: shares of the net radiation that reach the ground at midday, by surface (Oke 1987, ch. 2-4)
+MIDDAY_SHARE = {"grass or crop": (0.05, 0.2), "bare soil": (0.2, 0.4), "pavement": (0.3, 0.6)}
+#: the full and the measured-top fits agree on kappa/C within this relative difference
+AGREE = 0.2
+
+
+@dataclass
+class EnergyBalance:
+    """The surface energy balance of a fit (see the module docstring).
+
+    Attributes
+    ----------
+    G_surface : (n_obs,) fitted heat flux into the ground at the top, W m-2.
+    midday_share : median of ``G_surface / q_net`` where ``q_net`` exceeds half its maximum.
+    diffusivity : kappa/C of the fit, m2 s-1; ``kappa`` its conductivity.
+    top : kappa, C, kappa/C of the measured-top MAP fit (None when it could not be made).
+    plates : per plate label: ``{"slope": fitted flux regressed on the reading, "rmse": W m-2}``.
+    findings : the fit's estimates outside plausible ranges.
+    verdict : plain words.
+    """
+
+    G_surface: np.ndarray
+    midday_share: float
+    diffusivity: float
+    kappa: float
+    top: dict | None
+    plates: dict = field(default_factory=dict)
+    findings: list = field(default_factory=list)
+    verdict: str = ""
+
+    @property
+    def surface_wrong(self) -> bool:
+        """Conduction agrees with the measured-top fit, the energy into the ground does not."""
+        return self.verdict.startswith("The surface boundary")
+
+    def to_dict(self) -> dict:
+        return {"midday_share": self.midday_share, "diffusivity": self.diffusivity,
+                "kappa": self.kappa, "top": self.top, "plates": self.plates,
+                "findings": [f.text() for f in self.findings], "verdict": self.verdict,
+                "surface_wrong": self.surface_wrong}
+
+    def text(self) -> str:
+        lines = [f"fitted ground heat flux at midday: {100 * self.midday_share:.0f} % of net "
+                 "radiation (" + ", ".join(f"{k} {100 * a:.0f}-{100 * b:.0f} %"
+                                           for k, (a, b) in MIDDAY_SHARE.items()) + ")"]
+        lines.append(f"kappa/C of this fit {self.diffusivity * 1e6:.3g} mm2/s, kappa "
+                     f"{self.kappa:.3g} W/m/K")
+        if self.top is not None:
+            lines.append(f"measured-top fit (shallowest sensor as boundary, no surface balance): "
+                         f"kappa/C {self.top['diffusivity'] * 1e6:.3g} mm2/s"
+                         + (f", kappa {self.top['kappa']:.3g} W/m/K (from the plate)"
+                            if self.top.get("from_plate") else ""))
+        for lab, v in self.plates.items():
+            lines.append(f"plate {lab}: fitted flux = {v['slope']:.2f} x reading, RMSE "
+                         f"{v['rmse']:.1f} W m-2")
+        lines += [f.text() for f in self.findings]
+        lines.append(self.verdict)
+        return "\n".join(lines)
+
+
+def energy_balance(problem, values: dict[str, float], *, top_fit: bool = True) -> EnergyBalance:
+    """The energy balance of ``problem`` at the point ``values`` (see the module docstring).
+
+    ``top_fit`` also fits the measured-top model by MAP (a few seconds: kappa, C and the plate
+    factors); it needs at least two observed sensors and a surface-balance model.
+    """
+    model = problem.model
+    space = problem.space
+    vals = {**space.value_dict(), **{k: float(v) for k, v in values.items() if k in space}}
+    p = {k: np.array([v]) for k, v in vals.items()}
+    coeffs = model.coefficients(p)
+    T_nodes = model.solve(p)
+    G = model.surface_flux(T_nodes, coeffs)[0]
+    q = np.asarray(model.meas.q_net, float)
+    day = q > 0.5 * max(float(q.max()), 1e-9)
+    share = float(np.median(G[day] / q[day])) if day.any() else float("nan")
+    kappa, C = vals["kappa"], vals["C"]
+    plates = {}
+    if model.plates:
+        Gp = model.observe_flux(T_nodes, coeffs, p)[0]
+        for j, lab in enumerate(model.meas.plate_labels):
+            obs = model.meas.G_obs[1:, j]
+            fit = Gp[1:, j]
+            slope = float(fit @ obs / max(float(obs @ obs), 1e-12))
+            plates[lab] = {"slope": slope, "rmse": float(np.sqrt(np.mean((fit - obs) ** 2)))}
+    top = None
+    if top_fit and not model.top_measured and model.meas.n_sensors >= 2:
+        top = _top_fit(problem)
+    h = [vals[n] for n in space.free if space[n].group == "h"]
+    declared = problem.cfg.model.get("material") if hasattr(problem.cfg, "model") else None
+    findings = check_values(kappa, C, h or None, declared)
+    eb = EnergyBalance(G, share, kappa / C, kappa, top, plates, findings)
+    eb.verdict = _verdict(eb)
+    return eb
+
+
+def _top_fit(problem) -> dict | None:
+    """MAP of the same case with the shallowest sensor as a measured top boundary (the
+    extensions that act below the surface kept)."""
+    cfg = problem.cfg
+    if not hasattr(cfg, "path"):
+        return None
+    try:
+        top_cfg = load_case(cfg.path, merge_overrides(cfg.raw, {"model": {"top": "measured"}}))
+    except (ValueError, OSError):
+        return None
+    exts = [e for e in problem.model.extensions
+            if type(e).surface is Extension.surface and not e.replaces_h]
+    pb = build_problem(top_cfg, extensions=exts)
+    f = refit(pb).values()
+    return {"kappa": f["kappa"], "C": f["C"], "diffusivity": f["kappa"] / f["C"],
+            "from_plate": pb.model.plates}
+
+
+def _verdict(eb: EnergyBalance) -> str:
+    alarms = [f for f in eb.findings if f.level == "alarm" and f.quantity in ("kappa", "C")]
+    plate_off = [lab for lab, v in eb.plates.items() if not 0.6 <= v["slope"] <= 1.6]
+    agree = eb.top is not None and abs(eb.diffusivity / eb.top["diffusivity"] - 1.0) <= AGREE
+    kappa_off = (eb.top is not None and eb.top.get("from_plate")
+                 and not 0.5 <= eb.kappa / eb.top["kappa"] <= 2.0)
+    if agree and (alarms or plate_off or kappa_off or eb.midday_share > 0.6):
+        why = []
+        if alarms:
+            why.append("kappa or C is physically impossible")
+        if kappa_off:
+            why.append(f"kappa {eb.kappa:.3g} against {eb.top['kappa']:.3g} from the measured top "
+                       "and the plate")
+        if plate_off:
+            why.append(f"the fitted flux at {', '.join(plate_off)} is off the plate's readings")
+        if eb.midday_share > 0.6:
+            why.append(f"{100 * eb.midday_share:.0f} % of the net radiation enters the ground at "
+                       "midday")
+        return ("The surface boundary is wrong: conduction is fine (kappa/C agrees with the "
+                f"measured-top fit within {100 * AGREE:.0f} %) but " + "; ".join(why)
+                + ". The energy the model pushes into the ground is wrong: the surface energy "
+                "balance lacks a sink or a resistance (evapotranspiration, the partition of the "
+                "net radiation, a surface layer of grass, thatch or mulch).")
+    if eb.top is not None and not agree:
+        return ("Conduction itself disagrees: kappa/C differs from the measured-top fit's by "
+                f"{100 * abs(eb.diffusivity / eb.top['diffusivity'] - 1):.0f} % (layers, sensor "
+                "depths or a temperature-dependent conductivity, below the surface).")
+    return "The energy entering the ground is consistent with the measured-top fit and the plates."
