@@ -25,6 +25,12 @@ cotangent of the outputs at that time plus what flows back from later steps) and
     \quad \mu \;\text{(half step)};\qquad
     \frac{\mathrm{d}L}{\mathrm{d}p} \mathrel{+}= -\mu^T \frac{\partial G}{\partial p}.
 
+Any grid (uniform or stretched: the rates carry the geometry factors of
+:meth:`Grid._rate_geometry`, and :func:`_gradients` their derivatives). With a Dirichlet top
+(``Forcing.T_top``) ``M`` is restricted to nodes ``1 .. N-1``; its transposed solve is the full
+one with the surface pivot set to zero (:math:`\mu_0 = 0`), so ``h``, ``q`` and ``C_0`` get zero
+gradients and :math:`\kappa_0` acts through :math:`a_1` only.
+
 Because every row ``i`` of ``G`` is proportional to :math:`1/C_i`,
 :math:`\partial L/\partial C_i \mathrel{+}= \mu_i (T_i - T^+_i)/C_i`; kappa of cell ``k`` enters
 rows ``k`` (:math:`c_k`) and ``k+1`` (:math:`a_{k+1}`), the bottom cell's term coupling to
@@ -74,8 +80,8 @@ def solve_vjp(
 
     Parameters
     ----------
-    grid, forcing, coeffs : as :func:`pavement_mcmc.solver.solve`; ``coeffs.beta`` must be
-        ``None`` or all zero (linear conduction).
+    grid, forcing, coeffs : as :func:`pavement_mcmc.solver.solve` (uniform or stretched grid,
+        Robin or Dirichlet top); ``coeffs.beta`` must be ``None`` or all zero (linear conduction).
     cotangent_fn : ``cotangent_fn(out) -> G``; ``out`` is the (n_sets, n_obs, n_nodes) forward
         solution exactly as ``solve`` returns it, ``G`` (same shape) is ``d loss / d out``. The
         entries of ``G`` at ``t_obs[0]`` (the fixed initial profile) and at the bottom node (the
@@ -91,7 +97,8 @@ def solve_vjp(
     grads : dict of ``d loss / d coefficient`` per set, shaped like the coefficients:
         ``"kappa"`` (n_sets, n_nodes-1), per W m-1 K-1; ``"C"`` (n_sets, n_nodes), per J m-3 K-1
         (the bottom node's entry is 0: it is unused); ``"h"`` (n_sets, n_obs-1), per W m-2 K-1;
-        ``"q"`` (n_sets, n_obs), per W m-2.
+        ``"q"`` (n_sets, n_obs), per W m-2. With a Dirichlet top ``h``, ``q`` and ``C[:, 0]``
+        are 0 (they do not enter the scheme), and the cotangent of the top node is ignored.
 
     Example
     -------

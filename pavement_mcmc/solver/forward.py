@@ -20,6 +20,7 @@ _PARALLEL_MIN = 64  # from this many sets: blocks run on numba's threads
 _N_START = 1  # CN steps replaced by two backward-Euler half steps each (Rannacher start-up)
 _DAMP = True  # ... and the first CN step of every observation interval (h jumps there)
 
+
 def _all_finite(a: np.ndarray) -> bool:
     """``np.isfinite(a).all()``; fast path: a sum is finite unless an entry is not (or it
     overflows, then the exact test decides). ``np.all`` costs ~4 us per call on small arrays."""
@@ -50,7 +51,7 @@ def _check(grid: Grid, forcing: Forcing, coeffs: Coefficients) -> tuple[np.ndarr
             )
         if not _all_finite(arrays[name]):
             raise ValueError(f"Coefficients.{name} contains non-finite values")
-    if not (kappa.min() > 0 and (n_nodes < 2 or arrays["C"][:, :-1].min() > 0)):
+    if not (kappa.min() > 0 and arrays["C"][:, :-1].min() > 0):
         raise ValueError("Coefficients.kappa and C must be positive")
     beta = coeffs.beta
     if beta is not None:

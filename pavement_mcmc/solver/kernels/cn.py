@@ -44,13 +44,15 @@ _FM = {"contract"}  # allow fused multiply-add only; no reassociation (measured:
 class Problem(NamedTuple):
     """The read-only inputs of every kernel, sets innermost (``N`` = n_nodes-1, ``S`` sets).
 
-    kappaT (N, S) cell conductivities, W m-1 K-1 (cell ``i`` = ``[x_i, x_i+1]``);
-    CT (N+1, S) nodal heat capacities, J m-3 K-1 (only the first N are used); hT (n_obs-1, S)
-    W m-2 K-1; qT (n_obs, S) W m-2; beta (S,) 1/K; T_air, T_bot, T_top (n_obs,) degC (T_top
-    zeros unless ``top``); T0 (N+1,) degC; t_obs (n_obs,) s; substeps (n_obs-1,) int; geo (2, N) = (ga,
-    rho) and dx0 (m): the grid's geometry factors; T_ref degC; nonlin: lagged kappa(T) on; top: Dirichlet
-    top; n_start: the first ``n_start`` CN steps are each replaced by two backward-Euler half
-    steps; damp: so is the first step of every observation interval (``h`` may jump there).
+    - kappaT (N, S): cell conductivities, W m-1 K-1 (cell ``i`` = ``[x_i, x_i+1]``);
+    - CT (N+1, S): nodal heat capacities, J m-3 K-1 (only the first N are used);
+    - hT (n_obs-1, S) W m-2 K-1; qT (n_obs, S) W m-2; beta (S,) 1/K;
+    - T_air, T_bot, T_top (n_obs,) degC (T_top zeros unless ``top``); T0 (N+1,) degC;
+    - t_obs (n_obs,) s; substeps (n_obs-1,) int;
+    - geo (2, N) = (ga, rho) and dx0 (m): the grid's geometry factors (module docstring);
+    - T_ref degC; nonlin: lagged kappa(T); top: Dirichlet top;
+    - n_start: the first ``n_start`` CN steps are each replaced by two backward-Euler half
+      steps; damp: so is the first step of every observation interval (``h`` may jump there).
     """
 
     kappaT: np.ndarray
