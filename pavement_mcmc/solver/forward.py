@@ -77,7 +77,7 @@ def _problem(
 ) -> _kernels.Problem:
     """The kernels' :class:`~.kernels.cn.Problem`: sets-innermost copies and the geometry."""
     T_top = getattr(forcing, "T_top", None)
-    geo = grid._kernel_geometry()
+    geom = grid._rate_geometry()
     return _kernels.Problem(
         *(np.ascontiguousarray(v.T) for v in (kappa, C, h, q)),
         np.zeros(kappa.shape[0]) if beta is None else np.ascontiguousarray(beta, dtype=float),
@@ -86,8 +86,8 @@ def _problem(
         np.ascontiguousarray(forcing.T0, dtype=float),
         grid.t_obs,
         grid.substeps,
-        geo,
-        float(grid._rate_geometry()[0][0]),
+        geom.kernel,
+        geom.dx0,
         float(T_ref),
         bool(nonlin),
         T_top is not None,

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 
@@ -199,35 +200,49 @@ class Grid:
         """(n_obs-1,) solver step length in each observation interval, s."""
         return np.diff(self.t_obs) / self.substeps
 
-    def _rate_geometry(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-        """Per-node factors of the rates, for the kernels and the adjoint (N = n_nodes-1).
-
-        Returns ``(d, Vd, ga, rho)``, each (N,): ``d[i] = dx_i``; ``Vd[i] = V_i`` (``Vd[0] =
-        dx_0 = 2 V_0``); ``ga[i] = 1 / (Vd[i] dx_i-1)`` (``ga[0] = 1 / dx_0^2``); ``rho[i] =
-        dx_i-1 / dx_i`` (``rho[0] = 1``). Then ``a_i = kappa_i-1 ga_i / C_i``, ``c_i = kappa_i
-        ga_i rho_i / C_i`` and ``c_0 = 2 kappa_0 ga_0 / C_0``, surface factor ``2 / (C_0 dx_0)``.
-        On a uniform grid ``Vd = d = dx`` and ``rho = 1`` exactly, so ``ga = 1 / (dx dx)``: the
-        same floating-point operations as a scalar ``dx``. Computed once per grid (read-only).
-        """
+    def _rate_geometry(self) -> _Geometry:
+        """Per-node factors of the rates, for the kernels and the adjoint (computed once per
+        grid, read-only); see :class:`_Geometry`."""
         geom = self.__dict__.get("_geometry")
         if geom is None:
-            d = self.dx_cells
-            prev = np.r_[d[0], d[:-1]]
-            Vd = np.r_[d[0], 0.5 * (d[:-1] + d[1:])]
-            geom = (d, Vd, 1.0 / (Vd * prev), prev / d)
-            for a in geom:
-                a.setflags(write=False)
+            geom = _Geometry.of(self.dx_cells)
             object.__setattr__(self, "_geometry", geom)
         return geom
 
-    def _kernel_geometry(self) -> np.ndarray:
-        """(2, n_nodes-1) ``(ga, rho)`` of :meth:`_rate_geometry`, as the kernels take it (cached)."""
-        geo = self.__dict__.get("_geo2")
-        if geo is None:
-            geo = np.stack(self._rate_geometry()[2:])
-            geo.setflags(write=False)
-            object.__setattr__(self, "_geo2", geo)
-        return geo
+
+class _Geometry(NamedTuple):
+    """The grid's rate factors, each (N,) with N = n_nodes-1 unless stated.
+
+    ``d[i] = dx_i``; ``Vd[i] = V_i`` (``Vd[0] = dx_0 = 2 V_0``); ``ga[i] = 1 / (Vd[i] dx_i-1)``
+    (``ga[0] = 1 / dx_0^2``); ``rho[i] = dx_i-1 / dx_i`` (``rho[0] = 1``). Then ``a_i = kappa_i-1
+    ga_i / C_i``, ``c_i = kappa_i ga_i rho_i / C_i``, ``c_0 = 2 kappa_0 ga_0 / C_0`` and the surface
+    factor is ``2 / (C_0 dx_0)``. For the kernels: ``kernel`` = (2, N) ``(ga, rho)``, ``dx0``.
+    For the adjoint's gradients (:func:`pavement_mcmc.solver.adjoint._gradients`): ``vol_ratio
+    [k] = Vd_k / Vd_k+1`` (N-1,), ``inv_rho = 1 / rho`` as ``dx_i / dx_i-1`` and ``den = Vd d``.
+    On a uniform grid ``Vd = d = dx``, ``rho = vol_ratio = inv_rho = 1`` exactly and ``ga = den^-1
+    = 1 / (dx dx)``: the same floating-point operations as a scalar ``dx``.
+    """
+
+    d: np.ndarray
+    Vd: np.ndarray
+    ga: np.ndarray
+    rho: np.ndarray
+    kernel: np.ndarray
+    dx0: float
+    vol_ratio: np.ndarray
+    inv_rho: np.ndarray
+    den: np.ndarray
+
+    @classmethod
+    def of(cls, d: np.ndarray) -> _Geometry:
+        prev = np.r_[d[0], d[:-1]]
+        Vd = np.r_[d[0], 0.5 * (d[:-1] + d[1:])]
+        ga, rho = 1.0 / (Vd * prev), prev / d
+        geom = cls(d, Vd, ga, rho, np.stack((ga, rho)), float(d[0]), Vd[:-1] / Vd[1:], d / prev, Vd * d)
+        for a in geom:
+            if isinstance(a, np.ndarray):
+                a.setflags(write=False)
+        return geom
 
 
 class _CellCount:
