@@ -277,7 +277,12 @@ def test_recommended_deep_grid_within_a_hundredth_of_a_degree(deep):
     assert _deep_error(deep, Grid.build_stretched(deep, growth=1.3)) > 0.02
     # shallowest sensor as a Dirichlet top: the grid starts at 2 cm
     d0 = deep.depths[0]
-    top_grid = Grid.stretched(deep.bottom_depth - d0, deep.t, nodes_at=deep.depths - d0)
+    top_grid = Grid.build_stretched(deep, top_sensor=True)
+    assert top_grid.L == deep.bottom_depth - d0 and all(np.any(top_grid.x == z) for z in deep.depths - d0)
     assert _deep_error(deep, top_grid, top=True) <= 0.002  # measured 0.0008
+    forcing = Forcing.from_measurements(deep, top_grid, top_sensor=True)
+    np.testing.assert_array_equal(forcing.T_top, deep.T_obs[:, 0])
+    np.testing.assert_allclose(forcing.T0[np.searchsorted(top_grid.x, deep.depths - d0)], deep.T_obs[0])
+    assert Grid.build(deep, top_sensor=True).L == top_grid.L
     with pytest.raises(ValueError, match="top sensor depth"):
         Forcing.from_measurements(deep, grid, top_sensor=True)

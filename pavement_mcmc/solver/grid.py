@@ -80,14 +80,19 @@ class Grid:
         return cls(L=L, x=x, t_obs=_times(t_obs), substeps=_substeps(t_obs, dt))
 
     @classmethod
-    def build(cls, meas: Measurements, dx: float = DEFAULT_DX, dt: float = DEFAULT_DT) -> Grid:
+    def build(
+        cls, meas: Measurements, dx: float = DEFAULT_DX, dt: float = DEFAULT_DT, *, top_sensor: bool = False
+    ) -> Grid:
         """Uniform grid for a case: ``L = meas.bottom_depth``, observation times ``meas.t``.
 
         Defaults ``dx = 5 mm``, ``dt = 180 s``: on the reference case (kappa 1.31 W m-1 K-1,
         C 0.99 MJ m-3 K-1, h 10 W m-2 K-1, 15-min data) the CN solution is within 0.004 degC
         (max abs over all nodes and times) of a 4x refined one — 1/60 of sigma = 0.25 degC.
+        With ``top_sensor=True`` the grid starts at the shallowest sensor (a Dirichlet top, see
+        :meth:`Forcing.from_measurements`): ``L = meas.bottom_depth - meas.depths[0]``.
         """
-        return cls.from_times(meas.bottom_depth, meas.t, dx=dx, dt=dt)
+        d0 = float(meas.depths[0]) if top_sensor else 0.0
+        return cls.from_times(meas.bottom_depth - d0, meas.t, dx=dx, dt=dt)
 
     @classmethod
     def stretched(
@@ -135,12 +140,16 @@ class Grid:
         return cls(L=L, x=np.array(x), t_obs=_times(t_obs), substeps=_substeps(t_obs, dt))
 
     @classmethod
-    def build_stretched(cls, meas: Measurements, **kwargs) -> Grid:
+    def build_stretched(cls, meas: Measurements, *, top_sensor: bool = False, **kwargs) -> Grid:
         """:meth:`stretched` grid for a case: ``L = meas.bottom_depth``, times ``meas.t``, nodes
-        at the sensor depths ``meas.depths`` unless ``nodes_at`` is given (then add the sensor
-        depths yourself if you want them)."""
-        kwargs.setdefault("nodes_at", meas.depths)
-        return cls.stretched(meas.bottom_depth, meas.t, **kwargs)
+        at the sensor depths ``meas.depths`` unless ``nodes_at`` is given (depths from the top
+        of the grid; then add the sensor depths yourself if you want them). With
+        ``top_sensor=True`` the grid starts at the shallowest sensor ``d0 = meas.depths[0]`` (a
+        Dirichlet top, see :meth:`Forcing.from_measurements`): ``L = bottom_depth - d0`` and the
+        nodes sit at ``meas.depths - d0``. Other keywords as :meth:`stretched`."""
+        d0 = float(meas.depths[0]) if top_sensor else 0.0
+        kwargs.setdefault("nodes_at", meas.depths - d0)
+        return cls.stretched(meas.bottom_depth - d0, meas.t, **kwargs)
 
     def refined(self, factor: int = 4) -> Grid:
         """The same grid refined ``factor`` times in space and time: every cell split into
