@@ -89,16 +89,17 @@ grass record (72 h from hour 168, L = 50 cm, nodes at 2, 5, 10, 20 cm; the recor
 q_net, h = 10): 44 nodes; max abs difference over all nodes and times against
 ``grid.refined(4)`` 0.0085 degC at kappa 1.2, C 2.6e6 and at most 0.0097 degC over
 kappa/C = 0.3-0.7 mm² s⁻¹ (kappa 1.2 with C 1.7-4.0 MJ m⁻³ K⁻¹, and C 2.6 MJ with kappa
-0.78-1.82). The uniform 5 mm / 180 s grid (101 nodes, 1440 steps) gives 0.0101 degC (up to 0.019
-at kappa/C = 0.3), at about 2.7 times the time per solve (``make bench``). The cells must grow
-slowly: with all of q_net entering the ground the daily wave still has several degC at 10-20 cm,
-and a cell of width :math:`\Delta x` resolves it to a relative :math:`\sim(\Delta x/d)^2/12`
-(damping depth :math:`d = \sqrt{2\kappa/(C\omega)} \approx 11` cm), so the spacing may only grow
-like :math:`e^{x/2d}`, a ratio of about :math:`1 + \Delta x_\mathrm{top}/2d`; growth 1.3 gives 0.05
-degC at 15 cm. dt matters as much: with the per-interval damping the time error alone is 0.012
-degC at 300 s (0.004 at 180 s; 0.003 at 300 s without that damping). With the 2 cm sensor as a
-Dirichlet top the same settings give 0.0008 degC. Check another record the same way: compare
-``solve`` on ``grid`` and ``grid.refined(4)``.
+0.78-1.82). The uniform 5 mm / 180 s grid (101 nodes, 1440 steps) gives 0.0101 degC (up to
+0.019 at kappa/C = 0.3), at 2.7-2.9 times the time per solve (1-64 sets, ``make bench``). The
+cells must grow slowly: with all of q_net entering the ground the daily wave still has several
+degC at 10-20 cm, and a cell of width :math:`\Delta x` resolves it to a relative
+:math:`\sim(\Delta x/d)^2/12` (damping depth :math:`d = \sqrt{2\kappa/(C\omega)} \approx 11`
+cm), so the spacing may only grow like :math:`e^{x/2d}`, a ratio of about
+:math:`1 + \Delta x_\mathrm{top}/2d`; growth 1.1, 1.2, 1.3 give 0.020, 0.049, 0.053 degC (33,
+26, 25 nodes), the error peaking at 10-20 cm. dt matters as much: with the per-interval damping
+the time error alone is 0.012 degC at 300 s (0.004 at 180 s; 0.003 at 300 s without that
+damping). With the 2 cm sensor as a Dirichlet top the same settings give 0.0008 degC. Check
+another record the same way: compare ``solve`` on ``grid`` and ``grid.refined(4)``.
 
 Kernels are compiled with numba (``pavement_mcmc.solver.kernels.cn*``, ``cache=True``, ``fastmath`` limited
 to FMA contraction). Every kernel takes its read-only inputs as one named tuple
