@@ -25,6 +25,12 @@ cotangent of the outputs at that time plus what flows back from later steps) and
     \quad \mu \;\text{(half step)};\qquad
     \frac{\mathrm{d}L}{\mathrm{d}p} \mathrel{+}= -\mu^T \frac{\partial G}{\partial p}.
 
+Any grid (uniform or stretched: the rates carry the geometry factors of
+:meth:`Grid._rate_geometry`, and :func:`_gradients` their derivatives). With a Dirichlet top
+(``Forcing.T_top``) ``M`` is restricted to nodes ``1 .. N-1``; its transposed solve is the full
+one with the surface pivot set to zero (:math:`\mu_0 = 0`), so ``h``, ``q`` and ``C_0`` get zero
+gradients and :math:`\kappa_0` acts through :math:`a_1` only.
+
 Because every row ``i`` of ``G`` is proportional to :math:`1/C_i`,
 :math:`\partial L/\partial C_i \mathrel{+}= \mu_i (T_i - T^+_i)/C_i`; kappa of cell ``k`` enters
 rows ``k`` (:math:`c_k`) and ``k+1`` (:math:`a_{k+1}`), the bottom cell's term coupling to
@@ -53,7 +59,6 @@ from __future__ import annotations
 
 from collections.abc import Callable
 
-import numba
 import numpy as np
 
 from . import forward as solver
@@ -75,8 +80,8 @@ def solve_vjp(
 
     Parameters
     ----------
-    grid, forcing, coeffs : as :func:`pavement_mcmc.solver.solve`; ``coeffs.beta`` must be
-        ``None`` or all zero (linear conduction).
+    grid, forcing, coeffs : as :func:`pavement_mcmc.solver.solve` (uniform or stretched grid,
+        Robin or Dirichlet top); ``coeffs.beta`` must be ``None`` or all zero (linear conduction).
     cotangent_fn : ``cotangent_fn(out) -> G``; ``out`` is the (n_sets, n_obs, n_nodes) forward
         solution exactly as ``solve`` returns it, ``G`` (same shape) is ``d loss / d out``. The
         entries of ``G`` at ``t_obs[0]`` (the fixed initial profile) and at the bottom node (the
@@ -92,7 +97,8 @@ def solve_vjp(
     grads : dict of ``d loss / d coefficient`` per set, shaped like the coefficients:
         ``"kappa"`` (n_sets, n_nodes-1), per W m-1 K-1; ``"C"`` (n_sets, n_nodes), per J m-3 K-1
         (the bottom node's entry is 0: it is unused); ``"h"`` (n_sets, n_obs-1), per W m-2 K-1;
-        ``"q"`` (n_sets, n_obs), per W m-2.
+        ``"q"`` (n_sets, n_obs), per W m-2. With a Dirichlet top ``h``, ``q`` and ``C[:, 0]``
+        are 0 (they do not enter the scheme), and the cotangent of the top node is ignored.
 
     Example
     -------
@@ -113,29 +119,21 @@ def solve_vjp(
     if grid.n_nodes < 3:
         raise ValueError(f"solve_vjp needs a grid with at least 3 nodes, got {grid.n_nodes}")
     S, N = kappa.shape
-    n_obs, dx = grid.n_obs, grid.dx
-    T_air = np.ascontiguousarray(forcing.T_air, dtype=float)
-    T_bot = np.ascontiguousarray(forcing.T_bottom, dtype=float)
-    T0 = np.ascontiguousarray(forcing.T0, dtype=float)
-    kT, CT, hT, qT = (np.ascontiguousarray(v.T) for v in (kappa, C, h, q))
-    t_obs, sub = grid.t_obs, grid.substeps
-    n_start, damp = solver._N_START, solver._DAMP
-    n_slots = int(K.slot_layout(sub, n_start, damp)[1][-1]) + 1
+    n_obs = grid.n_obs
+    P = solver._problem(grid, forcing, kappa, C, h, q, beta, coeffs.T_ref, False)
+    n_slots = int(K.slot_layout(P.substeps, P.n_start, P.damp)[1][-1]) + 1
     stored = 8 * S * n_slots * N <= _STORE_MAX
     scalar = stored and S <= solver._SCALAR_MAX
-    threads = numba.get_num_threads()
-    parallel = threads > 1 and S >= solver._PARALLEL_MIN
-    per_thread = -(-S // threads) if parallel else S
-    block = min(solver._BLOCK_MAX, -(-per_thread // 8) * 8)
+    parallel = solver._parallel(S)
+    block = solver._block(S, parallel)
     # 1. forward: keeping every state (stored), or the ordinary solve (recomputed per interval)
     if stored:
         buf = np.empty(S * n_slots * N)
         outT = np.empty((n_obs, N + 1, S))
         if scalar:
-            KS.fwd_scalar(kT, CT, hT, qT, T_air, T_bot, T0, t_obs, sub, dx, n_start, damp, outT, buf)
+            KS.fwd_scalar(P, outT, buf)
         else:
-            fwd = K.fwd_parallel if parallel else K.fwd_serial
-            fwd(kT, CT, hT, qT, T_air, T_bot, T0, t_obs, sub, dx, n_start, damp, block, outT, buf)
+            (K.fwd_parallel if parallel else K.fwd_serial)(P, block, outT, buf)
         out = outT.transpose(2, 0, 1)
     else:
         buf = np.empty(0)
@@ -149,35 +147,41 @@ def solve_vjp(
         raise ValueError("cotangent_fn returned non-finite values")
     GT = np.ascontiguousarray(G.transpose(1, 2, 0))
     # 3. reverse sweep: the scale-free sums of pavement_mcmc.solver.kernels.adjoint, (n, n_sets) each
-    acc_a, acc_b = np.empty((N, S)), np.empty((N, S))
-    acc_h, acc_q = np.empty((n_obs - 1, S)), np.empty((n_obs, S))
+    acc = (np.empty((N, S)), np.empty((N, S)), np.empty((n_obs - 1, S)), np.empty((n_obs, S)))
     if scalar:
-        KS.vjp_scalar(
-            kT, CT, hT, T_air, T_bot, t_obs, sub, dx, n_start, damp, GT, buf, acc_a, acc_b, acc_h, acc_q
-        )
+        KS.vjp_scalar(P, GT, buf, acc)
     else:
-        vjp = K.vjp_parallel if parallel else K.vjp_serial
-        vjp(
-            kT, CT, hT, qT, T_air, T_bot, t_obs, sub, dx, n_start, damp, outT, GT, stored, buf, block,
-            acc_a, acc_b, acc_h, acc_q,
-        )
-    return out, _gradients(kappa, C, h, q, dx, acc_a.T, acc_b.T, acc_h.T, acc_q.T)
+        (K.vjp_parallel if parallel else K.vjp_serial)(P, outT, GT, stored, buf, block, acc)
+    grads = _gradients(grid, kappa, C, h, q, *(a.T for a in acc))
+    if P.top:  # no surface row: C_0, h and q do not enter the scheme
+        grads["C"][:, 0] = 0.0
+        grads["h"][:] = 0.0
+        grads["q"][:] = 0.0
+    return out, grads
 
 
-def _gradients(kappa, C, h, q, dx, acc_a, acc_b, acc_h, acc_q) -> dict[str, np.ndarray]:
-    """Gradients from the reverse sweep's sums (all (n_sets, n)); see :mod:`._kernels_adjoint`."""
+def _gradients(grid, kappa, C, h, q, acc_a, acc_b, acc_h, acc_q) -> dict[str, np.ndarray]:
+    """Gradients from the reverse sweep's sums (all (n_sets, n)); see :mod:`.kernels.adjoint`.
+
+    With the geometry of :meth:`Grid._rate_geometry` (``c_k = f_k kappa_k / (C_k Vd_k d_k)``,
+    ``f_0 = 2``, else 1; ``a_k+1 = kappa_k / (C_k+1 Vd_k+1 d_k)``):
+    ``dL/dkappa_k = (-f_k acc_a[k] / C_k + (Vd_k / Vd_k+1) acc_b[k] / C_k+1) / (Vd_k d_k)`` and
+    ``sum mu_i G_i = (f_i kappa_i acc_a[i] - (d_i / d_i-1) kappa_i-1 acc_b[i-1]) / (C_i Vd_i d_i)``.
+    On a uniform grid the ratios are exactly 1 and ``Vd d = dx dx``.
+    """
     S, N = kappa.shape
+    geom = grid._rate_geometry()
     Cn = C[:, :N]
     f = np.ones(N)
-    f[0] = 2.0  # half control volume at the surface: c_0 = 2 kappa_0 / (C_0 dx^2)
+    f[0] = 2.0  # half control volume at the surface: c_0 = 2 kappa_0 / (C_0 dx_0^2)
     gk = -f * acc_a / Cn
-    gk[:, :-1] += acc_b[:, :-1] / Cn[:, 1:]
-    gk /= dx * dx
+    gk[:, :-1] += geom.vol_ratio * acc_b[:, :-1] / Cn[:, 1:]
+    gk /= geom.den
     # sum over steps of mu_i (T_i - T+_i) = c_i acc_a[i] - a_i acc_b[i-1] (+ the surface's h, q terms)
     sg = f * kappa * acc_a
-    sg[:, 1:] -= kappa[:, :-1] * acc_b[:, :-1]
-    sg /= Cn * dx * dx
-    hs = 2.0 / (Cn[:, 0] * dx)
+    sg[:, 1:] -= kappa[:, :-1] * acc_b[:, :-1] * geom.inv_rho[1:]
+    sg /= Cn * geom.Vd * geom.d
+    hs = 2.0 / (Cn[:, 0] * geom.dx0)
     sg[:, 0] += hs * (np.sum(h * acc_h, axis=1) - np.sum(q * acc_q, axis=1))
     gC = np.zeros((S, N + 1))
     gC[:, :N] = sg / Cn

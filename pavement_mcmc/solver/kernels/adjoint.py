@@ -23,13 +23,22 @@ step, ``X = T+`` for a half step, the bottom node of ``X`` being the matching su
 :func:`pavement_mcmc.solver.adjoint._gradients` converts:
 
 - ``acc_a[k] = sum r mu_k (X_k - X_k+1)``, ``acc_b[k] = sum r mu_k+1 (X_k - X_k+1)``:
-  ``dL/dkappa_k = -(f_k acc_a[k] / C_k - acc_b[k] / C_k+1) / dx^2`` (``f_0 = 2``, else 1);
+  ``dL/dkappa_k = -(dc_k/dkappa_k) acc_a[k] + (da_k+1/dkappa_k) acc_b[k]``, i.e. on a uniform
+  grid ``-(f_k acc_a[k] / C_k - acc_b[k] / C_k+1) / dx^2`` (``f_0 = 2``, else 1);
 - ``acc_h[j] = sum r mu_0 (X_0 - T_air sum)`` over interval ``j``: ``dL/dh_j = -hs acc_h[j]``
-  with ``hs = 2 / (C_0 dx)``;
+  with ``hs = 2 / (C_0 dx_0)``;
 - ``acc_q[j] = sum r mu_0 (interpolation weight of q_j)``: ``dL/dq_j = hs acc_q[j]``;
 - C: every row ``i`` of ``G`` is proportional to ``1/C_i``, so ``dL/dC_i = sum mu_i (T_i - T+_i)
   / C_i = sum mu_i G_i / C_i``, and ``sum mu_i G_i = c_i acc_a[i] - a_i acc_b[i-1]`` (plus
   ``hs (sum_j h_j acc_h[j] - sum_j q_j acc_q[j])`` at the surface): no accumulator of its own.
+
+Dirichlet top: the forward kernels' ``invD0 = 0`` (:func:`._kernels._surface_pivot`) makes
+``mu[0] = 0``, which is the transposed solve of the reduced system (rows 1 .. N-1); ``acc_h``,
+``acc_q`` and row 0's terms then vanish, and ``kappa_0`` still enters through ``a_1`` (node 0 of
+the stored states is ``T_top``).
+
+Every kernel takes the :class:`~pavement_mcmc.solver.kernels.cn.Problem` ``P`` and the sums as
+one tuple ``acc = (acc_a, acc_b, acc_h, acc_q)``.
 """
 
 from __future__ import annotations
@@ -37,7 +46,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit, prange
 
-from .cn import _FM, _be_step, _cn_step, _lin, _prepare, _store, _surface_pivot
+from .cn import _FM, _be_step, _block_inputs, _cn_step, _lin, _prepare, _store, _surface_pivot
 
 
 @njit(cache=True)
@@ -115,31 +124,26 @@ def _adjoint_step(
 
 
 @njit(cache=True, fastmath=_FM)
-def _block_setup(kappaT, CT, s0, nb):
-    """The block's kappa and C (sets innermost) and the factorisation workspace."""
-    N = kappaT.shape[0]
-    kap0 = np.empty((N, nb))
-    CB = np.empty((N, nb))
-    for i in range(N):
-        for s in range(nb):
-            kap0[i, s] = kappaT[i, s0 + s]
-            CB[i, s] = CT[i, s0 + s]
-    return kap0, CB, np.zeros((8, N, nb)), np.zeros((6, nb)), np.zeros((N, nb))
+def _block_setup(P, s0, nb):
+    """The block's kappa and C (sets innermost), initial state and factorisation workspace."""
+    N = P.kappaT.shape[0]
+    kap0, CB, T = _block_inputs(P, s0, nb)
+    return kap0, CB, T, np.zeros((8, N, nb)), np.zeros((6, nb)), np.zeros((N, nb))
 
 
 @njit(cache=True, fastmath=_FM)
-def _factor(kap0, CB, dx, r, hj, refactor, w, z, gt):
+def _factor(geo, dx0, top, kap0, CB, r, hj, refactor, w, z, gt):
     """Factorise ``M`` for an interval: all of it if ``refactor`` (new step length), else only
     the surface pivot (new ``h``); also the transpose gains ``gt``."""
     if refactor:  # (beta, T_ref, T, Tb0 are unused in the linear case)
-        _prepare(kap0, CB, z[1], 0.0, False, dx, r, hj, gt, 0.0, w, z)
+        _prepare(geo, dx0, 0.0, top, False, kap0, CB, z[1], r, hj, gt, 0.0, w, z)
         _transpose_gain(w[3], w[6], gt)
     else:
-        _surface_pivot(z[0], z[2], hj, z[4], z[3])
+        _surface_pivot(z[0], z[2], hj, z[4], z[3], top)
 
 
 @njit(cache=True, fastmath=_FM)
-def _advance(st, k, j, ns, first_j, n_start, damp, T_air, T_bot, qa, qb, w, z):
+def _advance(T_air, T_bot, T_top, n_start, damp, st, k, j, ns, first_j, qa, qb, w, z):
     """Interval ``j``'s steps from slot ``k`` of ``st`` on, each into the next slot; returns the
     slot of the interval's end state. Same steps and arithmetic as ``_kernels._cn_block``."""
     l, u, g, invD, R = w[3], w[4], w[5], w[6], w[7]
@@ -156,7 +160,8 @@ def _advance(st, k, j, ns, first_j, n_start, damp, T_air, T_bot, qa, qb, w, z):
                 Ta = _lin(T_air[j], T_air[j + 1], wb)
                 Tb = _lin(T_bot[j], T_bot[j + 1], wb)
                 st[k + 1, :, :] = st[k]
-                _be_step(st[k + 1], R, l, u, g, invD0, hh, Ta, Tb, qs, invD)
+                Tt = _lin(T_top[j], T_top[j + 1], wb)
+                _be_step(st[k + 1], R, l, u, g, invD0, hh, Ta, Tb, qs, invD, Tt)
                 k += 1
         else:
             Ta_sum = _lin(T_air[j], T_air[j + 1], w0) + _lin(T_air[j], T_air[j + 1], w1)
@@ -164,17 +169,17 @@ def _advance(st, k, j, ns, first_j, n_start, damp, T_air, T_bot, qa, qb, w, z):
             for s in range(nb):
                 qs[s] = hc[s] * (_lin(qa[s], qb[s], w0) + _lin(qa[s], qb[s], w1))
             st[k + 1, :, :] = st[k]
-            _cn_step(st[k + 1], R, l, u, g, invD0, hh, Ta_sum, Tb_sum, qs, invD)
+            Tt = _lin(T_top[j], T_top[j + 1], w1)
+            _cn_step(st[k + 1], R, l, u, g, invD0, hh, Ta_sum, Tb_sum, qs, invD, Tt)
             k += 1
     return k
 
 
 @njit(cache=True, fastmath=_FM)
-def _retreat(
-    st, k, j, ns, first_j, n_start, damp, T_air, T_bot, r, w, z, gt, lam, mu, acc_a, acc_b, acc_h, acc_q
-):
+def _retreat(T_air, T_bot, n_start, damp, st, k, j, ns, first_j, r, w, z, gt, lam, mu, acc):
     """Reverse sweep through interval ``j`` whose end state is slot ``k`` of ``st``: on entry
     ``lam`` = d loss / d T(t_obs[j+1]), on return d loss / d T(t_obs[j])."""
+    acc_a, acc_b, acc_h, acc_q = acc
     u, invD, invD0 = w[4], w[6], z[4]
     for m in range(ns - 1, -1, -1):
         be = first_j + m < n_start or (m == 0 and damp)
@@ -200,44 +205,44 @@ def _retreat(
 
 
 @njit(cache=True, fastmath=_FM)
-def _fwd_block(kappaT, CT, hT, qT, T_air, T_bot, T0, t_obs, substeps, dx, n_start, damp, s0, nb, out, buf):
+def _fwd_block(P, s0, nb, out, buf):
     """Crank-Nicolson for sets ``s0 .. s0+nb-1`` (as ``_kernels._cn_block``, linear), keeping
     every state in the block's segment of ``buf``; fills their columns of ``out``."""
-    N = kappaT.shape[0]
+    T_air, T_bot, T_top, t_obs, substeps = P.T_air, P.T_bot, P.T_top, P.t_obs, P.substeps
+    n_start, damp, geo, dx0, top, hT, qT = P.n_start, P.damp, P.geo, P.dx0, P.top, P.hT, P.qT
+    N = P.kappaT.shape[0]
     n_int = substeps.shape[0]
     first, slot0 = slot_layout(substeps, n_start, damp)
     n_slots = slot0[n_int] + 1
     st = buf[s0 * n_slots * N : (s0 + nb) * n_slots * N].reshape((n_slots, N, nb))
-    kap0, CB, w, z, gt = _block_setup(kappaT, CT, s0, nb)
-    for i in range(N):
-        for s in range(nb):
-            st[0, i, s] = T0[i]
+    kap0, CB, T, w, z, gt = _block_setup(P, s0, nb)
+    st[0, :, :] = T
     _store(out, 0, s0, st[0], T_bot[0])
     dt_fact = -1.0
     for j in range(n_int):
         ns = substeps[j]
         dt = (t_obs[j + 1] - t_obs[j]) / ns
-        _factor(kap0, CB, dx, 0.5 * dt, hT[j, s0 : s0 + nb], dt != dt_fact, w, z, gt)
+        _factor(geo, dx0, top, kap0, CB, 0.5 * dt, hT[j, s0 : s0 + nb], dt != dt_fact, w, z, gt)
         dt_fact = dt
         qa = qT[j, s0 : s0 + nb]
         qb = qT[j + 1, s0 : s0 + nb]
-        k = _advance(st, slot0[j], j, ns, first[j], n_start, damp, T_air, T_bot, qa, qb, w, z)
+        k = _advance(T_air, T_bot, T_top, n_start, damp, st, slot0[j], j, ns, first[j], qa, qb, w, z)
         _store(out, j + 1, s0, st[k], T_bot[j + 1])
 
 
 @njit(cache=True, fastmath=_FM)
-def _vjp_block(
-    kappaT, CT, hT, qT, T_air, T_bot, t_obs, substeps, dx, n_start, damp, out, GT, stored, buf, s0, nb,
-    acc_a, acc_b, acc_h, acc_q,
-):
-    """Reverse sweep for sets ``s0 .. s0+nb-1``; fills their columns of the sums ``acc_a``,
-    ``acc_b`` (N, S), ``acc_h`` (n_obs-1, S), ``acc_q`` (n_obs, S) (module docstring).
+def _vjp_block(P, out, GT, stored, buf, s0, nb, acc):
+    """Reverse sweep for sets ``s0 .. s0+nb-1``; fills their columns of the sums ``acc =
+    (acc_a, acc_b, acc_h, acc_q)``, shaped (N, S), (N, S), (n_obs-1, S), (n_obs, S) (module
+    docstring).
 
     ``out`` (n_obs, N+1, S): the forward solution; ``GT`` (same shape): d loss / d out. If
     ``stored``, the states are read from ``buf`` (filled by the forward with store); otherwise
-    each interval is recomputed from ``out``. Other arguments as ``_kernels._cn_block``.
+    each interval is recomputed from ``out``.
     """
-    N = kappaT.shape[0]
+    T_air, T_bot, T_top, t_obs, substeps = P.T_air, P.T_bot, P.T_top, P.t_obs, P.substeps
+    n_start, damp, geo, dx0, top, hT, qT = P.n_start, P.damp, P.geo, P.dx0, P.top, P.hT, P.qT
+    N = P.kappaT.shape[0]
     n_int = substeps.shape[0]
     first, slot0 = slot_layout(substeps, n_start, damp)
     n_slots = slot0[n_int] + 1
@@ -248,7 +253,7 @@ def _vjp_block(
         for j in range(n_int):
             max_slots = max(max_slots, slot0[j + 1] - slot0[j])
         st = np.empty((max_slots + 1, N, nb))
-    kap0, CB, w, z, gt = _block_setup(kappaT, CT, s0, nb)
+    kap0, CB, _, w, z, gt = _block_setup(P, s0, nb)
     lam = np.zeros((N, nb))
     mu = np.zeros((N, nb))
     a_b = np.zeros((2, N, nb))
@@ -258,7 +263,7 @@ def _vjp_block(
     for j in range(n_int - 1, -1, -1):
         ns = substeps[j]
         dt = (t_obs[j + 1] - t_obs[j]) / ns
-        _factor(kap0, CB, dx, 0.5 * dt, hT[j, s0 : s0 + nb], dt != dt_fact, w, z, gt)
+        _factor(geo, dx0, top, kap0, CB, 0.5 * dt, hT[j, s0 : s0 + nb], dt != dt_fact, w, z, gt)
         dt_fact = dt
         if stored:
             k = slot0[j + 1]
@@ -268,14 +273,15 @@ def _vjp_block(
                     st[0, i, s] = out[j, i, s0 + s]
             qa = qT[j, s0 : s0 + nb]
             qb = qT[j + 1, s0 : s0 + nb]
-            k = _advance(st, 0, j, ns, first[j], n_start, damp, T_air, T_bot, qa, qb, w, z)
+            k = _advance(T_air, T_bot, T_top, n_start, damp, st, 0, j, ns, first[j], qa, qb, w, z)
         for i in range(N):
             for s in range(nb):
                 lam[i, s] += GT[j + 1, i, s0 + s]
         _retreat(
-            st, k, j, ns, first[j], n_start, damp, T_air, T_bot, 0.5 * dt, w, z, gt, lam, mu,
-            a_b[0], a_b[1], h_b, q_b,
+            T_air, T_bot, n_start, damp, st, k, j, ns, first[j], 0.5 * dt, w, z, gt, lam, mu,
+            (a_b[0], a_b[1], h_b, q_b),
         )
+    acc_a, acc_b, acc_h, acc_q = acc
     for i in range(N):
         for s in range(nb):
             acc_a[i, s0 + s] = a_b[0, i, s]
@@ -289,52 +295,34 @@ def _vjp_block(
 
 
 @njit(cache=True, parallel=True)
-def fwd_parallel(kappaT, CT, hT, qT, T_air, T_bot, T0, t_obs, substeps, dx, n_start, damp, block, out, buf):
+def fwd_parallel(P, block, out, buf):
     """:func:`_fwd_block` over blocks of ``block`` sets, the blocks spread over numba's threads."""
-    S = kappaT.shape[1]
+    S = P.kappaT.shape[1]
     for b in prange((S + block - 1) // block):
         s0 = b * block
-        _fwd_block(
-            kappaT, CT, hT, qT, T_air, T_bot, T0, t_obs, substeps, dx, n_start, damp, s0, min(block, S - s0),
-            out, buf,
-        )
+        _fwd_block(P, s0, min(block, S - s0), out, buf)
 
 
 @njit(cache=True)
-def fwd_serial(kappaT, CT, hT, qT, T_air, T_bot, T0, t_obs, substeps, dx, n_start, damp, block, out, buf):
+def fwd_serial(P, block, out, buf):
     """As :func:`fwd_parallel`, on the calling thread."""
-    S = kappaT.shape[1]
+    S = P.kappaT.shape[1]
     for s0 in range(0, S, block):
-        _fwd_block(
-            kappaT, CT, hT, qT, T_air, T_bot, T0, t_obs, substeps, dx, n_start, damp, s0, min(block, S - s0),
-            out, buf,
-        )
+        _fwd_block(P, s0, min(block, S - s0), out, buf)
 
 
 @njit(cache=True, parallel=True)
-def vjp_parallel(
-    kappaT, CT, hT, qT, T_air, T_bot, t_obs, substeps, dx, n_start, damp, out, GT, stored, buf, block,
-    acc_a, acc_b, acc_h, acc_q,
-):
+def vjp_parallel(P, out, GT, stored, buf, block, acc):
     """:func:`_vjp_block` over blocks of ``block`` sets, the blocks spread over numba's threads."""
-    S = kappaT.shape[1]
+    S = P.kappaT.shape[1]
     for b in prange((S + block - 1) // block):
         s0 = b * block
-        _vjp_block(
-            kappaT, CT, hT, qT, T_air, T_bot, t_obs, substeps, dx, n_start, damp, out, GT, stored, buf,
-            s0, min(block, S - s0), acc_a, acc_b, acc_h, acc_q,
-        )
+        _vjp_block(P, out, GT, stored, buf, s0, min(block, S - s0), acc)
 
 
 @njit(cache=True)
-def vjp_serial(
-    kappaT, CT, hT, qT, T_air, T_bot, t_obs, substeps, dx, n_start, damp, out, GT, stored, buf, block,
-    acc_a, acc_b, acc_h, acc_q,
-):
+def vjp_serial(P, out, GT, stored, buf, block, acc):
     """As :func:`vjp_parallel`, on the calling thread."""
-    S = kappaT.shape[1]
+    S = P.kappaT.shape[1]
     for s0 in range(0, S, block):
-        _vjp_block(
-            kappaT, CT, hT, qT, T_air, T_bot, t_obs, substeps, dx, n_start, damp, out, GT, stored, buf,
-            s0, min(block, S - s0), acc_a, acc_b, acc_h, acc_q,
-        )
+        _vjp_block(P, out, GT, stored, buf, s0, min(block, S - s0), acc)

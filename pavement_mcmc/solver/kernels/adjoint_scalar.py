@@ -19,26 +19,31 @@ from .scalar import _be_half, _cn_full, _scalar_factor
 
 
 @njit(cache=True)
-def _scalar_work(kappaT, substeps, n_start, damp, buf):
+def _scalar_work(P, buf):
     """Slot layout, the state store ``(S, n_slots, N)`` view of ``buf`` and seven work vectors."""
-    N, S = kappaT.shape
-    first, slot0 = slot_layout(substeps, n_start, damp)
-    st = buf.reshape((S, slot0[substeps.shape[0]] + 1, N))
+    N, S = P.kappaT.shape
+    first, slot0 = slot_layout(P.substeps, P.n_start, P.damp)
+    st = buf.reshape((S, slot0[P.substeps.shape[0]] + 1, N))
     return (first, slot0, st, np.empty(N), np.empty(N), np.zeros(N), np.empty(N), np.zeros(N),
             np.empty(N), np.empty(N))
 
 
 @njit(cache=True, fastmath=_FM)
-def fwd_scalar(kappaT, CT, hT, qT, T_air, T_bot, T0, t_obs, substeps, dx, n_start, damp, out, buf):
+def fwd_scalar(P, out, buf):
     """Crank-Nicolson set by set (the arithmetic of ``cn_scalar``), keeping every state in
     ``buf`` viewed as ``(S, n_slots, N)``; fills ``out`` (n_obs, N+1, S)."""
-    N, S = kappaT.shape
+    T_air, T_bot, T_top, t_obs, substeps = P.T_air, P.T_bot, P.T_top, P.t_obs, P.substeps
+    top, n_start, damp = P.top, P.n_start, P.damp
+    N, S = P.kappaT.shape
     n_int = substeps.shape[0]
-    first, slot0, st, l, u, g, invD, gt, R, _ = _scalar_work(kappaT, substeps, n_start, damp, buf)
+    first, slot0, st, l, u, g, invD, gt, R, _ = _scalar_work(P, buf)
     for s in range(S):
         for i in range(N):
-            st[s, 0, i] = T0[i]
-            out[0, i, s] = T0[i]
+            st[s, 0, i] = P.T0[i]
+        if top:
+            st[s, 0, 0] = T_top[0]
+        for i in range(N):
+            out[0, i, s] = st[s, 0, i]
         out[0, N, s] = T_bot[0]
         dt_fact = -1.0
         d0 = 0.0
@@ -47,12 +52,12 @@ def fwd_scalar(kappaT, CT, hT, qT, T_air, T_bot, T0, t_obs, substeps, dx, n_star
             ns = substeps[j]
             dt = (t_obs[j + 1] - t_obs[j]) / ns
             if dt != dt_fact:
-                d0, hc = _scalar_factor(kappaT, CT, s, dx, 0.5 * dt, l, u, g, invD, gt)
+                d0, hc = _scalar_factor(P, s, 0.5 * dt, l, u, g, invD, gt)
                 dt_fact = dt
-            hh = hc * hT[j, s]
-            invD0 = 1.0 / (d0 + hh)
-            qa = qT[j, s]
-            qb = qT[j + 1, s]
+            hh = hc * P.hT[j, s]
+            invD0 = 0.0 if top else 1.0 / (d0 + hh)
+            qa = P.qT[j, s]
+            qb = P.qT[j + 1, s]
             k = slot0[j]
             for m in range(ns):
                 w0 = m / ns
@@ -65,7 +70,8 @@ def fwd_scalar(kappaT, CT, hT, qT, T_air, T_bot, T0, t_obs, substeps, dx, n_star
                         Ta = _lin(T_air[j], T_air[j + 1], wk)
                         Tb = _lin(T_bot[j], T_bot[j + 1], wk)
                         qk = hc * _lin(qa, qb, wk)
-                        _be_half(T, Tn, R, l, u, g, invD, invD0, hh, Ta, Tb, qk)
+                        Tt = _lin(T_top[j], T_top[j + 1], wk)
+                        _be_half(T, Tn, R, l, u, g, invD, invD0, hh, Ta, Tb, qk, Tt)
                         k += 1
                 else:
                     T = st[s, k]
@@ -73,7 +79,8 @@ def fwd_scalar(kappaT, CT, hT, qT, T_air, T_bot, T0, t_obs, substeps, dx, n_star
                     Ta_sum = _lin(T_air[j], T_air[j + 1], w0) + _lin(T_air[j], T_air[j + 1], w1)
                     Tb_sum = _lin(T_bot[j], T_bot[j + 1], w0) + _lin(T_bot[j], T_bot[j + 1], w1)
                     q_sum = hc * (_lin(qa, qb, w0) + _lin(qa, qb, w1))
-                    _cn_full(T, Tn, R, l, u, g, invD, invD0, hh, Ta_sum, Tb_sum, q_sum)
+                    Tt = _lin(T_top[j], T_top[j + 1], w1)
+                    _cn_full(T, Tn, R, l, u, g, invD, invD0, hh, Ta_sum, Tb_sum, q_sum, Tt)
                     k += 1
             for i in range(N):
                 out[j + 1, i, s] = st[s, k, i]
@@ -81,15 +88,16 @@ def fwd_scalar(kappaT, CT, hT, qT, T_air, T_bot, T0, t_obs, substeps, dx, n_star
 
 
 @njit(cache=True, fastmath=_FM)
-def vjp_scalar(
-    kappaT, CT, hT, T_air, T_bot, t_obs, substeps, dx, n_start, damp, GT, buf, acc_a, acc_b, acc_h, acc_q
-):
+def vjp_scalar(P, GT, buf, acc):
     """Reverse sweep set by set over the states stored by :func:`fwd_scalar`; fills the sums
-    ``acc_a``, ``acc_b`` (N, S), ``acc_h`` (n_obs-1, S), ``acc_q`` (n_obs, S) as
-    :func:`_vjp_block` (same steps as :func:`_adjoint_step`, scalar loops)."""
-    N, S = kappaT.shape
+    ``acc = (acc_a, acc_b, acc_h, acc_q)``, shaped (N, S), (N, S), (n_obs-1, S), (n_obs, S), as
+    :func:`_vjp_block` (same steps as :func:`_adjoint_step`, scalar loops; a Dirichlet top has
+    ``invD0 = 0``, hence ``mu[0] = 0``)."""
+    T_air, T_bot, t_obs, substeps, n_start, damp = P.T_air, P.T_bot, P.t_obs, P.substeps, P.n_start, P.damp
+    acc_a, acc_b, acc_h, acc_q = acc
+    N, S = P.kappaT.shape
     n_int = substeps.shape[0]
-    first, slot0, st, l, u, g, invD, gt, lam, mu = _scalar_work(kappaT, substeps, n_start, damp, buf)
+    first, slot0, st, l, u, g, invD, gt, lam, mu = _scalar_work(P, buf)
     for s in range(S):
         for i in range(N):
             lam[i] = 0.0
@@ -105,9 +113,9 @@ def vjp_scalar(
             dt = (t_obs[j + 1] - t_obs[j]) / ns
             r = 0.5 * dt
             if dt != dt_fact:
-                d0, hc = _scalar_factor(kappaT, CT, s, dx, r, l, u, g, invD, gt)
+                d0, hc = _scalar_factor(P, s, r, l, u, g, invD, gt)
                 dt_fact = dt
-            invD0 = 1.0 / (d0 + hc * hT[j, s])
+            invD0 = 0.0 if P.top else 1.0 / (d0 + hc * P.hT[j, s])
             for i in range(N):
                 lam[i] += GT[j + 1, i, s]
             k = slot0[j + 1]

@@ -1,7 +1,9 @@
 """Compiled Du Fort-Frankel kernels (the paper's scheme, kept for parity).
 
 Internal module; see :mod:`pavement_mcmc.solver` for the scheme and :mod:`pavement_mcmc.solver.kernels.cn`
-for the notation and the sets-innermost layout.
+for the notation and the sets-innermost layout. Robin top only; the rates take the grid's
+geometry factors, but :func:`pavement_mcmc.solver.solve` runs this scheme on uniform grids only
+(parity with the paper, whose consistency condition dt/dx -> 0 is stated for a uniform dx).
 """
 
 from __future__ import annotations
@@ -22,14 +24,14 @@ from .cn import (
 
 
 @njit(cache=True, fastmath=_FM)
-def _dff_coeffs(kap, CB, dx, dt, h, a, c, hs, p, wa, wc, ws):
+def _dff_coeffs(geo, dx0, kap, CB, dt, h, a, c, hs, p, wa, wc, ws):
     """Du Fort-Frankel update coefficients: ``T+ = p T- + wa T[i-1] + wc T[i+1] + ws (source)``.
 
     ``(T+ - T-) / (2 dt) = a (T[i-1] - Tbar) + c (T[i+1] - Tbar) - hs h Tbar + hs F`` with
     ``Tbar = (T+ + T-)/2`` and ``F = h T_air + q`` at the surface node (``a[0] = 0``).
     """
     N, nb = a.shape
-    _rates(kap, CB, dx, a, c, hs)
+    _rates(kap, CB, geo, dx0, a, c, hs)
     for i in range(N):
         for s in range(nb):
             e = dt * (a[i, s] + c[i, s])
@@ -59,15 +61,18 @@ def _dff_step(Tm, T, p, wa, wc, ws, F, Tb):
 
 
 @njit(cache=True, fastmath=_FM)
-def _dff_block(kappaT, CT, hT, qT, beta, T_ref, nonlin, T_air, T_bot, T0, t_obs, substeps, dx, s0, nb, out):
-    """Du Fort-Frankel for sets ``s0 .. s0+nb-1``; arguments as :func:`_kernels._cn_block`.
+def _dff_block(P, s0, nb, out):
+    """Du Fort-Frankel for sets ``s0 .. s0+nb-1`` of the
+    :class:`~pavement_mcmc.solver.kernels.cn.Problem` ``P`` (Robin top); fills ``out``.
 
     Three-level explicit scheme, started (and restarted whenever the step length changes) with
     two backward-Euler half steps. ``kappa(T)`` is evaluated at the middle level ``n``.
     """
-    N = kappaT.shape[0]
+    T_air, T_bot, t_obs, substeps, nonlin = P.T_air, P.T_bot, P.t_obs, P.substeps, P.nonlin
+    geo, dx0, T_ref = P.geo, P.dx0, P.T_ref
+    N = P.kappaT.shape[0]
     n_int = substeps.shape[0]
-    kap0, CB, T = _block_inputs(kappaT, CT, T0, s0, nb)
+    kap0, CB, T = _block_inputs(P, s0, nb)
     Tm = T.copy()
     w = np.zeros((8, N, nb))
     z = np.zeros((6, nb))
@@ -75,17 +80,17 @@ def _dff_block(kappaT, CT, hT, qT, beta, T_ref, nonlin, T_air, T_bot, T0, t_obs,
     y = np.zeros((3, nb))
     kap, a, c, p, wa, wc = v[0], v[1], v[2], v[3], v[4], v[5]
     hs, ws, F = y[0], y[1], y[2]
-    bb = beta[s0 : s0 + nb]
+    bb = P.beta[s0 : s0 + nb]
     _store(out, 0, s0, T, T_bot[0])
     dt_prev = -1.0
     for j in range(n_int):
         ns = substeps[j]
         dt = (t_obs[j + 1] - t_obs[j]) / ns
-        hj = hT[j, s0 : s0 + nb]
-        qa = qT[j, s0 : s0 + nb]
-        qb = qT[j + 1, s0 : s0 + nb]
+        hj = P.hT[j, s0 : s0 + nb]
+        qa = P.qT[j, s0 : s0 + nb]
+        qb = P.qT[j + 1, s0 : s0 + nb]
         if not nonlin:
-            _dff_coeffs(kap0, CB, dx, dt, hj, a, c, hs, p, wa, wc, ws)
+            _dff_coeffs(geo, dx0, kap0, CB, dt, hj, a, c, hs, p, wa, wc, ws)
         for m in range(ns):
             w0 = m / ns
             w1 = (m + 1) / ns
@@ -94,25 +99,17 @@ def _dff_block(kappaT, CT, hT, qT, beta, T_ref, nonlin, T_air, T_bot, T0, t_obs,
             if dt != dt_prev:  # (re)start: level n -> n+1 by two implicit half steps
                 Tm[:, :] = T
                 wh = (m + 0.5) / ns
-                _prepare(kap0, CB, bb, T_ref, nonlin, dx, 0.5 * dt, hj, T, Tb0, w, z)
+                _prepare(geo, dx0, T_ref, False, nonlin, kap0, CB, bb, 0.5 * dt, hj, T, Tb0, w, z)
                 _be_pair(
-                    T,
-                    w,
-                    z,
-                    _lin(T_air[j], T_air[j + 1], wh),
-                    _lin(T_bot[j], T_bot[j + 1], wh),
-                    _lin(T_air[j], T_air[j + 1], w1),
-                    _lin(T_bot[j], T_bot[j + 1], w1),
-                    qa,
-                    qb,
-                    wh,
-                    w1,
+                    T, w, z, _lin(T_air[j], T_air[j + 1], wh), _lin(T_bot[j], T_bot[j + 1], wh),
+                    _lin(T_air[j], T_air[j + 1], w1), _lin(T_bot[j], T_bot[j + 1], w1), qa, qb, wh, w1,
+                    0.0, 0.0,
                 )
                 dt_prev = dt
                 continue
             if nonlin:
                 _lagged_kappa(kap0, bb, T_ref, T, Tb0, kap)
-                _dff_coeffs(kap, CB, dx, dt, hj, a, c, hs, p, wa, wc, ws)
+                _dff_coeffs(geo, dx0, kap, CB, dt, hj, a, c, hs, p, wa, wc, ws)
             for s in range(nb):
                 F[s] = hj[s] * Ta0 + _lin(qa[s], qb[s], w0)
             _dff_step(Tm, T, p, wa, wc, ws, F, Tb0)
@@ -121,29 +118,10 @@ def _dff_block(kappaT, CT, hT, qT, beta, T_ref, nonlin, T_air, T_bot, T0, t_obs,
 
 
 @njit(cache=True)
-def dff_serial(
-    kappaT, CT, hT, qT, beta, T_ref, nonlin, T_air, T_bot, T0, t_obs, substeps, dx, n_start, damp, block, out
-):
+def dff_serial(P, block, out):
     """:func:`_dff_block` over blocks of ``block`` sets on the calling thread (the scheme is kept
     for parity, not speed: no parallel variant, which saves its compile time).
-    ``n_start`` and ``damp`` are unused."""
-    S = kappaT.shape[1]
+    ``P.n_start`` and ``P.damp`` are unused."""
+    S = P.kappaT.shape[1]
     for s0 in range(0, S, block):
-        _dff_block(
-            kappaT,
-            CT,
-            hT,
-            qT,
-            beta,
-            T_ref,
-            nonlin,
-            T_air,
-            T_bot,
-            T0,
-            t_obs,
-            substeps,
-            dx,
-            s0,
-            min(block, S - s0),
-            out,
-        )
+        _dff_block(P, s0, min(block, S - s0), out)
