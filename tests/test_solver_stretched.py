@@ -8,16 +8,13 @@ geometry factors). The deep-record default grid is checked on the shared real re
 
 from __future__ import annotations
 
-import warnings
-from pathlib import Path
-
 import numpy as np
 import pytest
+from conftest import GRASS as DEEP
 
 from pavement_mcmc.data import read_csv_case
 from pavement_mcmc.solver import Coefficients, Forcing, Grid, solve, solve_numpy
 
-DEEP = Path(__file__).resolve().parents[2] / "shared" / "data" / "goettingen_grass" / "measurements.csv"
 SENSORS = [0.02, 0.05, 0.1, 0.2]  # m, the deep record's observed depths
 
 
@@ -253,16 +250,14 @@ def test_dff_refuses_stretched_grids_and_dirichlet_top():
 def deep():
     if not DEEP.exists():
         pytest.skip(f"shared real record not found at {DEEP} (it is not shipped with the project)")
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", UserWarning)  # its G_5cm flux-plate column is ignored
-        return read_csv_case(DEEP, sigma=0.1, window_hours=[168, 240])
+    return read_csv_case(DEEP, sigma=0.1, window_hours=[168, 240])
 
 
-def _deep_error(meas, grid, top=False, kappa=1.2, C=2.6e6):
+def _deep_error(meas, grid, kappa=1.2, C=2.6e6):
     sols = []
     for g in (grid, grid.refined(4)):
         c = Coefficients.uniform(kappa, C, np.full(g.n_obs - 1, 10.0), meas.q_net, g.n_nodes)
-        sols.append(solve(g, Forcing.from_measurements(meas, g, top_sensor=top), c)[0])
+        sols.append(solve(g, Forcing.from_measurements(meas, g), c)[0])
     return np.abs(sols[0] - sols[1][:, ::4]).max()
 
 
@@ -277,12 +272,13 @@ def test_recommended_deep_grid_within_a_hundredth_of_a_degree(deep):
     assert _deep_error(deep, Grid.build_stretched(deep, growth=1.3)) > 0.02
     # shallowest sensor as a Dirichlet top: the grid starts at 2 cm
     d0 = deep.depths[0]
-    top_grid = Grid.build_stretched(deep, top_sensor=True)
+    top = deep.with_measured_top()
+    top_grid = Grid.build_stretched(top)
     assert top_grid.L == deep.bottom_depth - d0 and all(np.any(top_grid.x == z) for z in deep.depths - d0)
-    assert _deep_error(deep, top_grid, top=True) <= 0.002  # measured 0.0008
-    forcing = Forcing.from_measurements(deep, top_grid, top_sensor=True)
+    assert _deep_error(top, top_grid) <= 0.002  # measured 0.0008
+    forcing = Forcing.from_measurements(top, top_grid)
     np.testing.assert_array_equal(forcing.T_top, deep.T_obs[:, 0])
     np.testing.assert_allclose(forcing.T0[np.searchsorted(top_grid.x, deep.depths - d0)], deep.T_obs[0])
-    assert Grid.build(deep, top_sensor=True).L == top_grid.L
-    with pytest.raises(ValueError, match="top sensor depth"):
-        Forcing.from_measurements(deep, grid, top_sensor=True)
+    assert Grid.build(top).L == top_grid.L
+    with pytest.raises(ValueError, match="differs from bottom_depth"):
+        Forcing.from_measurements(top, grid)

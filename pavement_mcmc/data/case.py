@@ -29,6 +29,8 @@ Schema (paths are relative to the TOML file's directory)::
     material = "loam"               # optional: plausibility notes against this material
     extensions = []
     [grid]                          # keys and defaults: GRID_DEFAULTS
+    kind = "auto"                   # uniform (dx, dt) down to 10 cm, stretched below (dx_top,
+                                    # growth, dx_max, dt; nodes at the sensors and plates)
     [parameters.<name>]             # keys: PARAMETER_KEYS (value, lower, upper, vary, prior)
     prior = { dist = "truncnormal", mean = 2.27, sd = 0.1135 }
     [sampler]                       # keys and defaults: SAMPLER_DEFAULTS

@@ -40,7 +40,10 @@ DATA_KEYS = (
 #: valid values of [model] top: the surface energy balance, or the shallowest sensor measured
 TOPS = ("surface", "measured")
 #: Valid keys of [grid] and their defaults (dx in m, dt in s; None = the solver's measured default).
-GRID_DEFAULTS: dict[str, Any] = {"dx": None, "dt": None, "scheme": "cn"}
+GRID_DEFAULTS: dict[str, Any] = {"kind": "auto", "dx": None, "dt": None, "dx_top": None,
+                                  "growth": None, "dx_max": None, "scheme": "cn"}
+#: valid values of [grid] kind: "auto" is uniform down to 10 cm, stretched below
+GRID_KINDS = ("auto", "uniform", "stretched")
 #: Valid keys of [sampler] and their defaults (None: the sampler chooses).
 SAMPLER_DEFAULTS: dict[str, Any] = {
     "kind": "emcee",
@@ -128,7 +131,8 @@ _DATA_TYPES = {
     "plate_rel_sigma": "number>=0",
     "columns": "table",
 }
-_GRID_TYPES = {"dx": "number>0", "dt": "number>0", "scheme": "str"}
+_GRID_TYPES = {"kind": "str", "dx": "number>0", "dt": "number>0", "dx_top": "number>0",
+               "growth": "number>0", "dx_max": "number>0", "scheme": "str"}
 _SAMPLER_TYPES = {
     "kind": "str",
     "seed": "int>=0",
@@ -169,6 +173,8 @@ def _validate(raw: dict, where: str) -> None:
 
     grid = raw.get("grid", {})
     _unknown(where, "[grid] ", grid, tuple(GRID_DEFAULTS))
+    if grid.get("kind", "auto") not in GRID_KINDS:
+        raise ConfigError(f"{where}: grid.kind = {grid['kind']!r}; valid: {', '.join(GRID_KINDS)}")
     for key, kind in _GRID_TYPES.items():
         if key in grid:
             _check(where, f"grid.{key}", grid[key], kind)

@@ -95,7 +95,7 @@ class InputNoise:
 
 
 #: the inputs whose noise can be integrated out (columns of their Jacobian blocks)
-INPUT_KINDS = ("bottom", "initial", "T_air", "q_net")
+INPUT_KINDS = ("bottom", "initial", "top", "T_air", "q_net")
 
 
 def input_jacobian(model, p: dict[str, np.ndarray], kinds=INPUT_KINDS,
@@ -105,9 +105,10 @@ def input_jacobian(model, p: dict[str, np.ndarray], kinds=INPUT_KINDS,
     Rows: the observations after the initial row, flattened (time-major, sensors fastest), as in
     :meth:`~pavement_mcmc.posterior.LogPosterior.residuals`. Columns: ``"bottom"`` the bottom
     temperature at every observation time; ``"initial"`` the initial reading of every observed
-    sensor; ``"T_air"`` the air temperature and ``"q_net"`` the net radiation at every
-    observation time (``q_net`` perturbed after the extensions' surface hooks). One-sided
-    differences of ``delta`` (degC or W m-2; exact for the linear conduction model).
+    sensor; ``"top"`` a measured top boundary at every observation time; ``"T_air"`` the air
+    temperature and ``"q_net"`` the net radiation at every observation time (``q_net`` perturbed
+    after the extensions' surface hooks). One-sided differences of ``delta`` (degC or W m-2;
+    exact for the linear conduction model).
     """
     unknown = set(kinds) - set(INPUT_KINDS)
     if unknown:
@@ -120,27 +121,35 @@ def input_jacobian(model, p: dict[str, np.ndarray], kinds=INPUT_KINDS,
         T = solve(grid, forcing, c, scheme=model.scheme)
         return model.observe(T, p)[0, 1:, :].ravel()
 
-    depths = np.append(meas.depths, meas.bottom_depth)
+    top = base.T_top is not None
+    if "top" in kinds and not top:
+        raise ValueError("input kind 'top' needs a measured top boundary")
+    # the initial profile interpolates [top,] the observed sensors and the bottom at t = 0
+    depths = np.concatenate([[0.0] if top else [], meas.depths, [meas.bottom_depth]])
     n_obs, n_s = meas.n_obs, meas.n_sensors
+
+    def initial(k: int) -> np.ndarray:  # delta x the initial profile's response to reading k
+        return delta * np.interp(grid.x, depths, np.eye(depths.size)[k])
+
     ref = predict(base)
     out = {}
     for kind in kinds:
         cols = []
-        if kind == "bottom":  # at t = 0 also the end of the initial profile
+        if kind in ("bottom", "top"):  # at t = 0 also an end of the initial profile
+            series, end = ("T_bottom", depths.size - 1) if kind == "bottom" else ("T_top", 0)
             for j in range(n_obs):
-                Tb = base.T_bottom.copy()
-                Tb[j] += delta
-                T0 = base.T0 + (delta * np.interp(grid.x, depths, np.eye(n_s + 1)[n_s]) if j == 0 else 0.0)
-                cols.append(predict(Forcing(base.T_air, Tb, T0)))
+                v = getattr(base, series).copy()
+                v[j] += delta
+                T0 = base.T0 + (initial(end) if j == 0 else 0.0)
+                cols.append(predict(replace(base, **{series: v, "T0": T0})))
         elif kind == "initial":
             for k in range(n_s):
-                T0 = base.T0 + delta * np.interp(grid.x, depths, np.eye(n_s + 1)[k])
-                cols.append(predict(Forcing(base.T_air, base.T_bottom, T0)))
+                cols.append(predict(replace(base, T0=base.T0 + initial(k + int(top)))))
         elif kind == "T_air":
             for j in range(n_obs):
                 Ta = base.T_air.copy()
                 Ta[j] += delta
-                cols.append(predict(Forcing(Ta, base.T_bottom, base.T0)))
+                cols.append(predict(replace(base, T_air=Ta)))
         else:
             for j in range(n_obs):
                 q = coeffs.q.copy()

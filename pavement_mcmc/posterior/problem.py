@@ -56,8 +56,7 @@ def build_problem(cfg, extensions=None, h_spec: dict | None = None, *,
     if model_cfg.get("top", "surface") == "measured":
         meas = meas.with_measured_top()
     grid_cfg = cfg.grid
-    grid_kw = {k: grid_cfg[k] for k in ("dx", "dt") if grid_cfg.get(k) is not None}
-    grid = Grid.build(meas, **grid_kw)
+    grid = build_grid(meas, grid_cfg)
     basis = HBasis.from_config(meas.t, h_spec or model_cfg.get("h", {"kind": "per_interval"}))
     exts = model_cfg.get("extensions", []) if extensions is None else extensions
     gamma_prior = cfg.parameters.get("gamma", {}).get("prior", {})
@@ -83,6 +82,25 @@ def build_problem(cfg, extensions=None, h_spec: dict | None = None, *,
     return Problem(cfg, model, space, posterior, ref)
 
 
+#: the deepest bottom boundary that ``[grid] kind = "auto"`` meets with a uniform grid, m
+AUTO_UNIFORM_MAX = 0.10
+
+
+def build_grid(meas, grid_cfg: dict) -> Grid:
+    """The solver grid of a ``[grid]`` section: uniform (``dx``, ``dt``; 5 mm, 180 s by
+    default), stretched (``dx_top``, ``growth``, ``dx_max``, ``dt``; the measured defaults of
+    :meth:`~pavement_mcmc.solver.Grid.stretched`, nodes at every sensor and plate), or
+    ``"auto"``: uniform for a bottom boundary down to :data:`AUTO_UNIFORM_MAX`, stretched
+    deeper (a uniform 5 mm grid over 50 cm is 100 cells)."""
+    kind = grid_cfg.get("kind", "auto")
+    if kind == "auto":
+        kind = "uniform" if meas.bottom_depth <= AUTO_UNIFORM_MAX + 1e-12 else "stretched"
+    if kind == "uniform":
+        return Grid.build(meas, **{k: grid_cfg[k] for k in ("dx", "dt") if grid_cfg.get(k) is not None})
+    keys = ("dx_top", "growth", "dx_max", "dt")
+    return Grid.build_stretched(meas, **{k: grid_cfg[k] for k in keys if grid_cfg.get(k) is not None})
+
+
 def _theta_at(space: ParameterSpace, values: dict) -> np.ndarray:
     """Free-parameter vector from values by name (missing names: the parameter's value)."""
     return np.array([float(values.get(n, space[n].value)) for n in space.free])
@@ -102,6 +120,9 @@ def input_sigmas(data: dict, meas=None) -> dict:
     rel = float(data.get("q_net_rel_sigma", 0.0) or 0.0)
     if rel > 0 and meas is not None:
         out["q_net"] = np.sqrt(out["q_net"] ** 2 + (rel * np.asarray(meas.q_net, float)) ** 2)
+    if meas is not None and meas.T_top is not None:  # a measured top: its sensor's noise, no
+        out["top"] = out["bottom"]  # surface balance (air temperature, net radiation) at all
+        out["T_air"] = out["q_net"] = 0.0
     return out
 
 

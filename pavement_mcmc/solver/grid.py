@@ -80,19 +80,16 @@ class Grid:
         return cls(L=L, x=x, t_obs=_times(t_obs), substeps=_substeps(t_obs, dt))
 
     @classmethod
-    def build(
-        cls, meas: Measurements, dx: float = DEFAULT_DX, dt: float = DEFAULT_DT, *, top_sensor: bool = False
-    ) -> Grid:
+    def build(cls, meas: Measurements, dx: float = DEFAULT_DX, dt: float = DEFAULT_DT) -> Grid:
         """Uniform grid for a case: ``L = meas.bottom_depth``, observation times ``meas.t``.
 
         Defaults ``dx = 5 mm``, ``dt = 180 s``: on the reference case (kappa 1.31 W m-1 K-1,
         C 0.99 MJ m-3 K-1, h 10 W m-2 K-1, 15-min data) the CN solution is within 0.004 degC
         (max abs over all nodes and times) of a 4x refined one — 1/60 of sigma = 0.25 degC.
-        With ``top_sensor=True`` the grid starts at the shallowest sensor (a Dirichlet top, see
-        :meth:`Forcing.from_measurements`): ``L = meas.bottom_depth - meas.depths[0]``.
+        With a measured top (:meth:`~pavement_mcmc.data.Measurements.with_measured_top`) the
+        depths are already below the top sensor.
         """
-        d0 = float(meas.depths[0]) if top_sensor else 0.0
-        return cls.from_times(meas.bottom_depth - d0, meas.t, dx=dx, dt=dt)
+        return cls.from_times(meas.bottom_depth, meas.t, dx=dx, dt=dt)
 
     @classmethod
     def stretched(
@@ -140,16 +137,15 @@ class Grid:
         return cls(L=L, x=np.array(x), t_obs=_times(t_obs), substeps=_substeps(t_obs, dt))
 
     @classmethod
-    def build_stretched(cls, meas: Measurements, *, top_sensor: bool = False, **kwargs) -> Grid:
+    def build_stretched(cls, meas: Measurements, **kwargs) -> Grid:
         """:meth:`stretched` grid for a case: ``L = meas.bottom_depth``, times ``meas.t``, nodes
-        at the sensor depths ``meas.depths`` unless ``nodes_at`` is given (depths from the top
-        of the grid; then add the sensor depths yourself if you want them). With
-        ``top_sensor=True`` the grid starts at the shallowest sensor ``d0 = meas.depths[0]`` (a
-        Dirichlet top, see :meth:`Forcing.from_measurements`): ``L = bottom_depth - d0`` and the
-        nodes sit at ``meas.depths - d0``. Other keywords as :meth:`stretched`."""
-        d0 = float(meas.depths[0]) if top_sensor else 0.0
-        kwargs.setdefault("nodes_at", meas.depths - d0)
-        return cls.stretched(meas.bottom_depth - d0, meas.t, **kwargs)
+        at the sensor and heat-flux plate depths unless ``nodes_at`` is given (then add the
+        sensor depths yourself if you want them). With a measured top
+        (:meth:`~pavement_mcmc.data.Measurements.with_measured_top`) every depth is already
+        below the top sensor. Other keywords as :meth:`stretched`."""
+        plates = meas.flux_depths if meas.flux_depths is not None else []
+        kwargs.setdefault("nodes_at", np.concatenate([meas.depths, plates]))
+        return cls.stretched(meas.bottom_depth, meas.t, **kwargs)
 
     def refined(self, factor: int = 4) -> Grid:
         """The same grid refined ``factor`` times in space and time: every cell split into
@@ -378,23 +374,18 @@ class Forcing:
     T_top: np.ndarray | None = None
 
     @classmethod
-    def from_measurements(cls, meas: Measurements, grid: Grid, *, top_sensor: bool = False) -> Forcing:
-        """Forcing from a case: its air and bottom temperatures, T0 by ``meas.initial_profile``.
-
-        With ``top_sensor=True`` the shallowest observed sensor (depth ``d0 = meas.depths[0]``)
-        is the Dirichlet top: the grid's ``x = 0`` is that sensor, so ``grid.L`` must be
-        ``meas.bottom_depth - d0`` (node ``x`` sits at depth ``x + d0``), ``T_top`` is that
-        sensor's series and ``T0`` the initial profile at depths ``grid.x + d0``.
-        """
-        d0 = float(meas.depths[0]) if top_sensor else 0.0
-        if not np.isclose(grid.L, meas.bottom_depth - d0, rtol=1e-12, atol=0.0):
-            where = f" - top sensor depth {d0} m" if top_sensor else ""
-            raise ValueError(f"grid.L={grid.L} m differs from bottom_depth={meas.bottom_depth} m{where}")
+    def from_measurements(cls, meas: Measurements, grid: Grid) -> Forcing:
+        """Forcing from a case: its air and bottom temperatures, T0 by ``meas.initial_profile``,
+        and a Dirichlet top ``T_top`` where the case has a measured top
+        (:meth:`~pavement_mcmc.data.Measurements.with_measured_top`: its depths, and so the
+        grid's ``x``, start at the top sensor)."""
+        if not np.isclose(grid.L, meas.bottom_depth, rtol=1e-12, atol=0.0):
+            raise ValueError(f"grid.L={grid.L} m differs from bottom_depth={meas.bottom_depth} m")
         if grid.t_obs.shape != meas.t.shape or not np.allclose(grid.t_obs, meas.t):
             raise ValueError("grid.t_obs differs from the measurement times")
         return cls(
             T_air=np.asarray(meas.T_air, dtype=float),
             T_bottom=np.asarray(meas.T_bottom, dtype=float),
-            T0=meas.initial_profile(grid.x + d0),
-            T_top=np.asarray(meas.T_obs[:, 0], dtype=float) if top_sensor else None,
+            T0=meas.initial_profile(grid.x),
+            T_top=None if meas.T_top is None else np.asarray(meas.T_top, dtype=float),
         )
