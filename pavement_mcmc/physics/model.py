@@ -32,7 +32,7 @@ from .registry import get_extension
 #: the paper's "literature values" (h W m-2 K-1, C J m-3 K-1, kappa W m-1 K-1)
 LITERATURE = {"kappa": 2.27, "C": 2.10e6, "h": 10.0}
 #: prior of a heat-flux plate's calibration factor: plates read within +-20-30 %
-PLATE_PRIOR = TruncatedNormal(1.0, 0.25, 0.3, 3.0)
+PLATE_PRIOR = TruncatedNormal(1.0, 0.25, 0.05, 20.0)
 _FD_REL = 1e-6  # relative step of the coefficient derivatives in solve_vjp
 
 
@@ -107,7 +107,7 @@ class Model:
                                         description="smoothness precision of h(t)"))
                 joint.append(GMRFSmoothness(self.h_basis.names, "gamma"))
             params += hp
-        params += [Parameter(n, 1.0, 0.3, 3.0, prior=PLATE_PRIOR, unit="-", group="plate",
+        params += [Parameter(n, 1.0, 0.05, 20.0, prior=PLATE_PRIOR, unit="-", group="plate",
                              description="heat-flux plate calibration factor (reading / true flux)")
                    for n in self.plate_names]
         owner = {p.name: "base model" for p in params}

@@ -90,11 +90,13 @@ def build_grid(meas, grid_cfg: dict) -> Grid:
     """The solver grid of a ``[grid]`` section: uniform (``dx``, ``dt``; 5 mm, 180 s by
     default), stretched (``dx_top``, ``growth``, ``dx_max``, ``dt``; the measured defaults of
     :meth:`~pavement_mcmc.solver.Grid.stretched`, nodes at every sensor and plate), or
-    ``"auto"``: uniform for a bottom boundary down to :data:`AUTO_UNIFORM_MAX`, stretched
-    deeper (a uniform 5 mm grid over 50 cm is 100 cells)."""
+    ``"auto"``: uniform when ``dx`` is given or the bottom boundary is no deeper than
+    :data:`AUTO_UNIFORM_MAX`, stretched otherwise (a uniform 5 mm grid over 50 cm is 100
+    cells)."""
     kind = grid_cfg.get("kind", "auto")
     if kind == "auto":
-        kind = "uniform" if meas.bottom_depth <= AUTO_UNIFORM_MAX + 1e-12 else "stretched"
+        shallow = meas.bottom_depth <= AUTO_UNIFORM_MAX + 1e-12
+        kind = "uniform" if shallow or grid_cfg.get("dx") is not None else "stretched"
     if kind == "uniform":
         return Grid.build(meas, **{k: grid_cfg[k] for k in ("dx", "dt") if grid_cfg.get(k) is not None})
     keys = ("dx_top", "growth", "dx_max", "dt")

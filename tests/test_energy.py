@@ -1,0 +1,54 @@
+"""Criticism of the surface energy balance on field twins (independent simulator: grass-like
+ground, sensors at 2-20 cm, bottom 50 cm, a 5 cm heat-flux plate)."""
+
+from __future__ import annotations
+
+import pytest
+
+from pavement_mcmc.criticism import refit
+from pavement_mcmc.criticism.energy import energy_balance
+from pavement_mcmc.data import load_case
+from pavement_mcmc.posterior import build_problem
+from pavement_mcmc.synthetic.corpus import get_twin, write_twin
+
+FAST = {"grid": {"kind": "stretched"}, "model": {"h": {"kind": "uniform", "n": 12}},
+        "data": {"window_hours": [0, 48]}}
+
+
+def _case(tmp_path, name, **over):
+    twin = get_twin(name)
+    return twin, load_case(write_twin(twin, tmp_path / name), {**FAST, **over})
+
+
+@pytest.mark.parametrize("name", ["field-thatch-s203", "field-none-s204"])
+def test_measured_top_recovers_diffusivity_and_the_plate_kappa(tmp_path, name):
+    """The shallowest sensor as boundary: no surface balance, kappa/C from the temperatures
+    and kappa from the plate (true 1.2, 2.6 MJ), whatever happens at the surface."""
+    twin, cfg = _case(tmp_path, name, model={"top": "measured"})
+    pb = build_problem(cfg)
+    assert pb.model.top_measured and pb.space.free == ["kappa", "C", "plate_G5cm"]
+    assert "kappa comes from the heat-flux plate" in pb.model.boundary_note()
+    v = refit(pb).values()
+    assert v["kappa"] / v["C"] == pytest.approx(twin.spec.kappa / twin.spec.C, rel=0.1)
+    assert v["kappa"] == pytest.approx(twin.spec.kappa, rel=0.15)
+
+
+def test_a_thatch_layer_is_named_as_the_surface_boundary(tmp_path):
+    """Twin with a thatch layer over the soil: the base fit's kappa and C are impossible and its
+    flux at the plate several times the reading, while its kappa/C agrees with the measured-top
+    fit: the verdict names the surface boundary."""
+    _, cfg = _case(tmp_path, "field-thatch-s203")
+    pb = build_problem(cfg)
+    eb = energy_balance(pb, refit(pb).values())
+    assert eb.surface_wrong, eb.text()
+    assert "conduction is fine" in eb.verdict
+    assert eb.kappa > 2.6 and eb.plates["G5cm"]["slope"] > 1.6
+    assert any(f.level == "alarm" for f in eb.findings)
+
+
+def test_a_clean_field_twin_is_consistent(tmp_path):
+    _, cfg = _case(tmp_path, "field-none-s204")
+    pb = build_problem(cfg)
+    eb = energy_balance(pb, refit(pb).values())
+    assert not eb.surface_wrong and "consistent" in eb.verdict, eb.text()
+    assert eb.top["diffusivity"] == pytest.approx(eb.diffusivity, rel=0.1)
