@@ -249,7 +249,10 @@ class Model:
         for name, v in direct.items():
             grads[name] = grads.get(name, 0.0) + v
         names = list(grads)
-        return out, names, np.stack([np.broadcast_to(grads[n], out.shape[:1]) for n in names], axis=1)
+        G = np.empty((out.shape[0], len(names)))
+        for j, n in enumerate(names):  # assignment broadcasts scalars (no per-name array)
+            G[:, j] = grads[n]
+        return out, names, G
 
     def _coefficient_vjp(self, p, names, g) -> dict[str, np.ndarray]:
         """``sum <g, d coeffs / d p_n>`` for each name, by central differences of the

@@ -22,11 +22,16 @@ chain exact (Neal 2011, "MCMC using Hamiltonian dynamics", 5.5.1.5). The posteri
 evaluated outside the bounds.
 
 Adaptation (burn-in only, then frozen): ``eps`` by dual averaging towards an acceptance rate of
-``target_acceptance`` (default 0.8; Hoffman & Gelman 2014), and the metric ``Sigma`` once, at
-adaptation step ``metric_at`` (default 75), from the pooled chains since step 30 (shrunk 10 %
-towards its diagonal; ``adapt_metric = False`` keeps the Laplace one), after which the dual
-averaging starts again for the new metric. Use an adaptation of at least ~2 ``metric_at``
-steps (the loop's default for ``hmc`` is 150).
+``target_acceptance`` (default 0.8; Hoffman & Gelman 2014), and the metric ``Sigma`` in
+doubling windows (as Stan does): at adaptation step ``metric_at`` (default 50) from the pooled
+chains since step ``metric_skip`` (10), then at ``2 metric_at`` from those since (shrunk 10 %
+towards its diagonal; ``adapt_metric = False`` keeps the Laplace one); after each the dual
+averaging starts again for the new metric. Use an adaptation of at least ~3 ``metric_at``
+steps (the loop's default for ``hmc`` is 150). Two windows against the former single one at
+step 75 (gradient evaluations, which do not depend on the machine's load; 16 chains, 400 steps
+after adaptation): Case C 30k instead of 35k evaluations to adapt and 60 instead of 70 per unit
+of the smallest ESS; on the Göttingen 72-h window the Laplace metric of the base fit is poor
+(step size 0.01, the 64-step cap), so the early first window matters more there.
 
 A step costs ``n_leapfrog`` gradient evaluations per chain; :attr:`Block.n_evals` counts them
 (each is one solve and one adjoint sweep, or ``2 d + 1`` solves by central differences for models
@@ -46,10 +51,8 @@ from .target import MarginalTarget, cholesky_of
 
 #: dual-averaging constants (Hoffman & Gelman 2014, section 3.2)
 _DA_GAMMA, _DA_T0, _DA_KAPPA = 0.05, 10.0, 0.75
-#: adaptation steps before the metric's draws are pooled (the step size settles first)
-_METRIC_SKIP = 30
 _SCALARS = ("log_eps", "log_eps_bar", "hbar", "mu", "k_adapt", "k_da", "n_leapfrog", "frozen",
-            "metric_done", "win_n")
+            "n_metric", "win_n")
 _ARRAYS = ("idx", "hcols", "hpos", "L", "f", "g", "loglik", "win_1", "win_2")
 
 
@@ -62,8 +65,12 @@ class HMCOptions:
         the metric's covariance).
     max_leapfrog : most leapfrog steps per trajectory.
     step_size : initial ``eps`` (default ``0.5 d^-1/4``).
-    adapt_metric : re-estimate the metric once from the pooled adaptation draws.
-    metric_at : the adaptation step at which it is re-estimated.
+    adapt_metric : re-estimate the metric from the pooled adaptation draws.
+    metric_at : the adaptation step at which it is first re-estimated.
+    metric_skip : adaptation steps before the first window's draws are pooled.
+    metric_windows : how many times it is re-estimated: window ``k`` ends at adaptation step
+        ``metric_at * 2**k`` and pools the draws since the previous window's end (the first one
+        those after ``metric_skip``).
     """
 
     target_acceptance: float = 0.8
@@ -71,7 +78,9 @@ class HMCOptions:
     max_leapfrog: int = 64
     step_size: float | None = None
     adapt_metric: bool = True
-    metric_at: int = 75
+    metric_at: int = 50
+    metric_skip: int = 10
+    metric_windows: int = 2
 
 
 class HMCSampler(Sampler):
@@ -116,7 +125,7 @@ class HMCSampler(Sampler):
         eps0 = float(self.options.step_size or 0.5 * d**-0.25)
         self.log_eps = self.log_eps_bar = float(np.log(eps0))
         self.mu = float(np.log(10.0 * eps0))
-        self.hbar, self.k_adapt, self.k_da, self.frozen, self.metric_done = 0.0, 0, 0, False, False
+        self.hbar, self.k_adapt, self.k_da, self.frozen, self.n_metric = 0.0, 0, 0, False, 0
         self.n_leapfrog = self._n_leapfrog(eps0)
         self.win_n, self.win_1, self.win_2 = 0.0, np.zeros(d), np.zeros((d, d))
         self.f, self.g, self.loglik, self.blobs = self._value_grad(self.theta)
@@ -243,7 +252,8 @@ class HMCSampler(Sampler):
     # -- adaptation --------------------------------------------------------------------------
     def _adapt(self, accept_prob: float) -> None:
         """Dual averaging of log eps; at step ``metric_at`` the metric from the pooled draws
-        since step :data:`_METRIC_SKIP`, and the dual averaging restarts for it."""
+        of the current window (``metric_skip``, ``metric_at``, ``metric_windows``), and the dual
+        averaging restarts for it."""
         self.k_adapt += 1
         self.k_da += 1
         k = self.k_da
@@ -253,24 +263,28 @@ class HMCSampler(Sampler):
         self.log_eps = self.mu - np.sqrt(k) / _DA_GAMMA * self.hbar
         w = k**-_DA_KAPPA
         self.log_eps_bar = w * self.log_eps + (1.0 - w) * self.log_eps_bar
-        if self.options.adapt_metric and not self.metric_done:
-            if self.k_adapt > _METRIC_SKIP:
+        o = self.options
+        if o.adapt_metric and self.n_metric < o.metric_windows:
+            start = o.metric_skip if self.n_metric == 0 else o.metric_at * 2 ** (self.n_metric - 1)
+            if self.k_adapt > start:
                 x = self.theta[:, self.idx]
                 self.win_n += x.shape[0]
                 self.win_1 += x.sum(axis=0)
                 self.win_2 += x.T @ x
-            if self.k_adapt >= self.options.metric_at:
+            if self.k_adapt >= o.metric_at * 2**self.n_metric:
                 self._metric_from_window()
         self.n_leapfrog = self._n_leapfrog(float(np.exp(self.log_eps)))
 
     def _metric_from_window(self) -> None:
         """The pooled draws' covariance (shrunk 10 % to its diagonal) as the new metric."""
-        self.metric_done = True
-        n = self.win_n
-        if n < 2 * self.idx.size:
+        self.n_metric += 1
+        n, w1, w2 = self.win_n, self.win_1, self.win_2
+        d = self.idx.size
+        self.win_n, self.win_1, self.win_2 = 0.0, np.zeros(d), np.zeros((d, d))
+        if n < 2 * d:
             return
-        mu = self.win_1 / n
-        cov = (self.win_2 - n * np.outer(mu, mu)) / (n - 1.0)
+        mu = w1 / n
+        cov = (w2 - n * np.outer(mu, mu)) / (n - 1.0)
         cov = 0.9 * cov + 0.1 * np.diag(np.diag(cov))
         if np.all(np.isfinite(cov)) and np.all(np.linalg.eigvalsh(cov) > 0):
             self._set_metric(cov)
@@ -297,7 +311,7 @@ class HMCSampler(Sampler):
         for k in _SCALARS:
             setattr(self, k, extra[k])
         self.k_adapt, self.k_da, self.n_leapfrog = int(self.k_adapt), int(self.k_da), int(self.n_leapfrog)
-        self.frozen, self.metric_done = bool(self.frozen), bool(self.metric_done)
+        self.frozen, self.n_metric = bool(self.frozen), int(self.n_metric)
         for k in _ARRAYS:
             setattr(self, k, np.array(arrays[k], dtype=float))
         for k in ("idx", "hcols", "hpos"):

@@ -1,0 +1,124 @@
+"""Field-record benchmark: the real Göttingen grass record (``runs/grass.toml``, read from
+``../shared``; skipped with a reason when absent) in the paper's Case C form.
+
+``run(quick=False) -> list[dict]``:
+
+1. Cost of one gradient (a solve and its adjoint sweep, the unit of an ``hmc`` step) and of one
+   solve, for 16 parameter sets, on windows of 1, 3 and 7 days (best of 7 repeats, interleaved),
+   with the ratio to the 1-day window: it should grow about linearly with the record.
+2. The 72-h window run to the stopping rule (ESS >= 1000 for every parameter, >= 50 tau,
+   split-R-hat < 1.01, no drift) with ``hmc``: the base fit and the fit with the named effect
+   (``surface_layer``); wall time includes the MAP. Side by side (not with ``quick``), the
+   baseline: the same runs with the metric adapted once at step 75, the setting before the
+   doubling windows. Gradient counts do not depend on the machine's load; seconds do (the load
+   average is printed).
+
+``python benchmarks/bench_field.py [--quick]``.
+"""
+
+from __future__ import annotations
+
+import os
+import sys
+import time
+import warnings
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+from pavement_mcmc.data import load_case  # noqa: E402
+from pavement_mcmc.posterior import build_problem  # noqa: E402
+from pavement_mcmc.runs import run_sampler  # noqa: E402
+from pavement_mcmc.samplers import get_sampler  # noqa: E402
+from pavement_mcmc.storage import MemoryStore  # noqa: E402
+
+CASE = ROOT / "runs" / "grass.toml"
+START = 168  # h: the window of runs/grass.toml starts here
+#: the hmc setting before the doubling metric windows (one window, at adaptation step 75)
+BASELINE = {"metric_at": 75, "metric_skip": 30, "metric_windows": 1}
+
+
+def _problem(hours: float = 72, extensions: tuple = ()):
+    over = {"data": {"window_hours": [START, START + hours]},
+            "model": {"extensions": list(extensions)}}
+    return build_problem(load_case(CASE, over))
+
+
+def _best(fn, repeats: int = 7) -> float:
+    fn()
+    best = np.inf
+    for _ in range(repeats):
+        t = time.perf_counter()
+        fn()
+        best = min(best, time.perf_counter() - t)
+    return best
+
+
+def cost_by_length(sets: int = 16) -> list[dict]:
+    """Gradient and solve time for 1, 3 and 7 days (see the module docstring)."""
+    rows = []
+    for days in (1, 3, 7):
+        pb = _problem(24 * days)
+        theta = np.tile(pb.space.initial(), (sets, 1))
+        g = _best(lambda pb=pb, th=theta: pb.posterior.loglik_and_grad(th))
+        s = _best(lambda pb=pb, th=theta: pb.posterior(th))
+        rows.append({"days": days, "intervals": pb.model.grid.n_obs - 1,
+                     "nodes": pb.model.grid.n_nodes, "params": len(pb.space.free),
+                     "grad_ms": 1e3 * g, "solve_ms": 1e3 * s})
+    for r in rows:
+        r["grad_ratio"] = r["grad_ms"] / rows[0]["grad_ms"]
+        r["length_ratio"] = r["intervals"] / rows[0]["intervals"]
+    return rows
+
+
+def to_target(extensions: tuple = (), options: dict | None = None, label: str = "",
+              max_seconds: float = 900) -> dict:
+    """``hmc`` on the 72-h window to the stopping rule; wall time includes the MAP."""
+    pb = _problem(72, extensions)
+    pb.posterior.loglik_and_grad(pb.space.initial()[None])  # compile outside the timing
+    t0 = time.perf_counter()
+    s = get_sampler("hmc", pb.posterior, seed=1, options=options)
+    s.prepare()
+    store = MemoryStore.create(pb.space.free, pb.posterior.blob_names, s.n_chains,
+                               {"sampler": s.name})
+    res = run_sampler(s, store, ess_target=1000, max_steps=10**7, max_seconds=max_seconds)
+    wall = time.perf_counter() - t0
+    d = store.read()
+    means = {k: float(d.chain[res.burn_in:, :, pb.space.free.index(k)].mean())
+             for k in ("kappa", "C")}
+    return {"fit": "+".join(("base",) + tuple(extensions)), "metric": label,
+            "converged": res.converged, "wall_s": wall, "steps": res.n_steps,
+            "gradients": res.n_evals, "min_ess": float(res.ess.min()),
+            "max_rhat": float(res.rhat.max()), "kappa": means["kappa"],
+            "C_MJ": means["C"] / 1e6}
+
+
+def run(quick: bool = False) -> list[dict]:
+    if not CASE.is_file() or not (ROOT.parent / "shared" / "data" / "goettingen_grass").is_dir():
+        print("skipped: the shared Göttingen record is not at ../shared/data/goettingen_grass")
+        return []
+    warnings.simplefilter("ignore")
+    print(f"machine: {os.cpu_count()} cores, load average {os.getloadavg()[0]:.1f} at start")
+    from run_all import print_table
+
+    print("cost of a gradient / a solve (16 parameter sets) against the record's length")
+    print_table(cost_by_length())
+    rows = []
+    for ext in ((), ("surface_layer",)):
+        rows.append(to_target(ext, label="doubling windows (default)"))
+        if not quick:
+            rows.append(to_target(ext, BASELINE, label="one window at 75 (before)"))
+    print(f"\n72-h window to the stopping rule (load average {os.getloadavg()[0]:.1f} at end)")
+    print_table(rows)
+    return []
+
+
+def main(quick: bool = False) -> None:
+    run(quick)
+
+
+if __name__ == "__main__":
+    main("--quick" in sys.argv)
