@@ -282,3 +282,32 @@ def test_recommended_deep_grid_within_a_hundredth_of_a_degree(deep):
     assert Grid.build(top).L == top_grid.L
     with pytest.raises(ValueError, match="differs from bottom_depth"):
         Forcing.from_measurements(top, grid)
+
+
+def test_long_solves_of_16_sets_use_the_threads_and_give_the_serial_answer(monkeypatch):
+    """A long solve (sets x steps x nodes above forward._PARALLEL_WORK) of 16 sets runs its two
+    blocks of 8 on numba's threads: the temperatures and the adjoint's gradients are the serial
+    blocks' bit for bit (each set's arithmetic does not depend on the block it is in)."""
+    import numba
+
+    from pavement_mcmc.solver import forward, solve_vjp
+
+    if numba.get_num_threads() < 2:
+        pytest.skip("one numba thread on this machine")
+    rng = np.random.default_rng(7)
+    grid, forcing, coeffs = _random_problem(rng, 16, False, False)
+    work = 16 * grid.substeps.sum() * grid.n_nodes
+    monkeypatch.setattr(forward, "_PARALLEL_WORK", work)  # this problem counts as long
+    assert forward._parallel(16, grid) and not forward._parallel(8, grid)
+
+    def run():
+        return solve_vjp(grid, forcing, coeffs, lambda T: np.sin(T))
+
+    T_par, g_par = run()
+    monkeypatch.setattr(forward, "_PARALLEL_WORK", np.inf)
+    assert not forward._parallel(16, grid)
+    T_ser, g_ser = run()
+    assert np.array_equal(T_par, T_ser)
+    for k in g_ser:
+        assert np.array_equal(g_par[k], g_ser[k]), k
+    assert np.array_equal(solve(grid, forcing, coeffs), T_ser)

@@ -124,7 +124,7 @@ def solve_vjp(
     n_slots = int(K.slot_layout(P.substeps, P.n_start, P.damp)[1][-1]) + 1
     stored = 8 * S * n_slots * N <= _STORE_MAX
     scalar = stored and S <= solver._SCALAR_MAX
-    parallel = solver._parallel(S)
+    parallel = solver._parallel(S, grid)
     block = solver._block(S, parallel)
     # 1. forward: keeping every state (stored), or the ordinary solve (recomputed per interval)
     if stored:

@@ -17,6 +17,9 @@ SCHEMES = ("cn", "dff")
 _BLOCK_MAX = 256  # most parameter sets per compiled block (working set stays in L2)
 _SCALAR_MAX = 4  # up to this many sets: the one-set-at-a-time scalar CN kernel
 _PARALLEL_MIN = 64  # from this many sets: blocks run on numba's threads
+# ... or from 16 sets (two blocks of 8) when a solve is long: sets x solver steps x nodes above
+# this (a 72-h field window, 16 sets: 7e5; Case C: 1e5, where the threads' start-up would cost)
+_PARALLEL_WORK = 3e5
 _N_START = 1  # CN steps replaced by two backward-Euler half steps each (Rannacher start-up)
 _DAMP = True  # ... and the first CN step of every observation interval (h jumps there)
 
@@ -128,7 +131,7 @@ def solve(grid: Grid, forcing: Forcing, coeffs: Coefficients, scheme: str = "cn"
     if scheme == "cn" and not nonlin and S <= _SCALAR_MAX and grid.n_nodes > 2:
         cn_scalar(P, out)
         return out.transpose(2, 0, 1)
-    parallel = _parallel(S)
+    parallel = _parallel(S, grid)
     if scheme == "dff":  # serial only (parity, not speed), in blocks sized as cn's
         kernel = _kernels_dff.dff_serial
     else:
@@ -137,9 +140,12 @@ def solve(grid: Grid, forcing: Forcing, coeffs: Coefficients, scheme: str = "cn"
     return out.transpose(2, 0, 1)
 
 
-def _parallel(S: int) -> bool:
-    """Run blocks of sets on numba's threads?"""
-    return numba.get_num_threads() > 1 and S >= _PARALLEL_MIN
+def _parallel(S: int, grid: Grid | None = None) -> bool:
+    """Run blocks of sets on numba's threads? Many sets, or 16 and more on a long solve."""
+    if numba.get_num_threads() < 2:
+        return False
+    work = 0.0 if grid is None else float(S) * float(np.sum(grid.substeps)) * grid.n_nodes
+    return S >= _PARALLEL_MIN or (S >= 16 and work >= _PARALLEL_WORK)
 
 
 def _block(S: int, parallel: bool) -> int:
