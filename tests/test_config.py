@@ -74,7 +74,8 @@ def test_shipped_cases_load(case, h):
         assert p["gamma"]["prior"] == {"dist": "rayleigh", "scale": 2.22}
     else:
         assert p["h"]["prior"] == {"dist": "truncnormal", "mean": 10.0, "sd": 5.0}
-    assert cfg.grid == {"dx": None, "dt": None, "scheme": "cn"}
+    assert cfg.grid == {"kind": "auto", "dx": None, "dt": None, "dx_top": None, "growth": None,
+                        "dx_max": None, "scheme": "cn"}
     assert cfg.sampler["seed"] == 1
     json.dumps(cfg.raw)  # JSON-serialisable
 
@@ -234,7 +235,8 @@ def test_load_with_overrides():
     cfg = load_case(RUNS / "caseA.toml", over, additions={"model": {"extensions": ["two_layer"]}})
     assert cfg.measurements.sigma == 0.3
     assert cfg.measurements.t[-1] == 20 * 3600.0
-    assert cfg.grid == {"dx": 0.0025, "dt": None, "scheme": "cn"}
+    assert cfg.grid == {"kind": "auto", "dx": 0.0025, "dt": None, "dx_top": None, "growth": None,
+                        "dx_max": None, "scheme": "cn"}
     assert cfg.raw["grid"]["dx"] == 0.0025
     assert cfg.model["extensions"] == ["two_layer"]
     assert cfg.model["h"]["edges_hours"] == [0, 6, 18, 28]

@@ -98,7 +98,7 @@ class InputNoise:
 INPUT_KINDS = ("bottom", "initial", "top", "T_air", "q_net")
 
 
-def input_jacobian(model, p: dict[str, np.ndarray], kinds=INPUT_KINDS,
+def input_jacobian(model, p: dict[str, np.ndarray], kinds=None,
                    delta: float = 0.1) -> dict[str, np.ndarray]:
     """``d T_pred / d inputs`` at ONE parameter set ``p`` (a dict of length-1 arrays), per kind.
 
@@ -108,8 +108,11 @@ def input_jacobian(model, p: dict[str, np.ndarray], kinds=INPUT_KINDS,
     sensor; ``"top"`` a measured top boundary at every observation time; ``"T_air"`` the air
     temperature and ``"q_net"`` the net radiation at every observation time (``q_net`` perturbed
     after the extensions' surface hooks). One-sided differences of ``delta`` (degC or W m-2;
-    exact for the linear conduction model).
+    exact for the linear conduction model). ``kinds``: default every kind the model has
+    (``"top"`` only with a measured top).
     """
+    if kinds is None:
+        kinds = tuple(k for k in INPUT_KINDS if k != "top" or model.forcing.T_top is not None)
     unknown = set(kinds) - set(INPUT_KINDS)
     if unknown:
         raise ValueError(f"unknown input kinds {sorted(unknown)}; valid: {list(INPUT_KINDS)}")
