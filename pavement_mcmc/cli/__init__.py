@@ -58,8 +58,11 @@ def build_parser() -> argparse.ArgumentParser:
 def main(argv: list[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
+    from ..runs.threads import single_blas_thread
+
     try:
-        return int(args.func(args) or 0)
+        with single_blas_thread():  # compare / diagnose / criticism refits: one BLAS thread
+            return int(args.func(args) or 0)
     except KeyboardInterrupt:
         print("interrupted", file=sys.stderr)
         return 130

@@ -7,6 +7,7 @@
 - :mod:`.load`: :func:`load_run` and :func:`point_estimate` (never re-run a sampler);
 - :mod:`.view`: :func:`load_view`, :class:`RunView` (burn-in, kept chain, posterior predictive);
 - :mod:`.tables`: the statistics table (``summary.csv`` / ``summary.md``);
+- :mod:`.threads`: :func:`single_blas_thread` (the chain must not depend on OMP_NUM_THREADS);
 - :mod:`.export`: ArviZ ``InferenceData`` of a run (optional dependency).
 """
 
@@ -15,6 +16,7 @@ from .fit import FitOutput, fit, resume
 from .load import load_run, point_estimate
 from .loop import RunResult, run_sampler
 from .tables import format_table, statistics_table, truth_values, write_table
+from .threads import single_blas_thread
 from .view import Predictive, RunView, load_view, predictive
 
 __all__ = [
@@ -30,6 +32,7 @@ __all__ = [
     "predictive",
     "resume",
     "run_sampler",
+    "single_blas_thread",
     "statistics_table",
     "to_toml",
     "truth_values",

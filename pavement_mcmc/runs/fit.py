@@ -28,6 +28,7 @@ from ..storage import HDF5Store, read_run
 from .casefile import store_meta, write_case_record
 from .loop import RunResult, run_sampler
 from .tables import plausibility, statistics_table, write_plausibility, write_table
+from .threads import single_blas_thread
 
 
 @dataclass
@@ -62,6 +63,7 @@ def _run(problem, sampler, store, scfg, progress, callback, max_seconds) -> RunR
     )
 
 
+@single_blas_thread()
 def fit(
     case: str | Path,
     out: str | Path,
@@ -132,6 +134,7 @@ def fit(
     return _finish(out, problem, res)
 
 
+@single_blas_thread()
 def resume(run_dir: str | Path, *, max_seconds: float | None = None, progress: bool = False,
            callback=None) -> FitOutput:
     """Continue a stored run from its last saved block, bit for bit.
