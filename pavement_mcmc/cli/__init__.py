@@ -5,9 +5,12 @@ from __future__ import annotations
 
 import argparse
 import importlib
+import platform
 import sys
+import traceback
 
 from .. import __version__
+from ..data.errors import UserError
 
 #: sub-command name -> module in this package (in the order ``--help`` lists them)
 COMMANDS = {
@@ -66,11 +69,16 @@ def main(argv: list[str] | None = None) -> int:
     except KeyboardInterrupt:
         print("interrupted", file=sys.stderr)
         return 130
-    except (ValueError, FileNotFoundError, FileExistsError, KeyError, OSError) as err:
-        # DataError, ConfigError, StoreMismatch are ValueErrors with messages for users
-        msg = err.args[0] if isinstance(err, KeyError) and err.args else err
-        print(f"pavement-mcmc {args.command}: error: {msg}", file=sys.stderr)
+    except UserError as err:  # DataError, ConfigError, StoreMismatch, RunError, ...
+        print(f"pavement-mcmc {args.command}: error: {err}", file=sys.stderr)
         return 2
+    except Exception:  # anything else is a bug: show it
+        traceback.print_exc()
+        print(f"\npavement-mcmc {args.command}: this is a bug in pavement_mcmc, not in your input. "
+              f"Please report it with the command line above and this traceback "
+              f"(pavement_mcmc {__version__}, {platform.platform()}, Python "
+              f"{platform.python_version()}).", file=sys.stderr)
+        return 1
 
 
 if __name__ == "__main__":  # pragma: no cover
