@@ -7,6 +7,7 @@ from __future__ import annotations
 import io
 
 from conftest import REPO
+
 from pavement_mcmc.cli import main
 from pavement_mcmc.cli.progress import Progress, describe
 

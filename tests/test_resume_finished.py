@@ -54,6 +54,7 @@ def test_ess_target_continues_until_the_new_target(finished_run, tmp_path):
 
 def test_refit_with_overwrite_removes_the_old_report(finished_run, tmp_path):
     from conftest import REPO
+
     from pavement_mcmc.runs import fit
 
     run = _copy(finished_run, tmp_path)

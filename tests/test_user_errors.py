@@ -3,10 +3,9 @@ message, and cli.main shows a bug (not a user error) with its traceback."""
 
 from __future__ import annotations
 
-
 import pytest
-
 from conftest import REPO
+
 from pavement_mcmc.cli import main
 
 
