@@ -8,6 +8,8 @@ import importlib
 import platform
 import sys
 import traceback
+import warnings
+from pathlib import Path
 
 from .. import __version__
 from ..data.errors import UserError
@@ -58,13 +60,27 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def _show_warning(message, category, filename, lineno, file=None, line=None) -> None:
+    """The package's warnings (ignored columns, time gaps, ...) as one plain line for users;
+    other libraries' warnings keep Python's format (file and line)."""
+    if str(filename).startswith(_PACKAGE_DIR):
+        print(f"warning: {message}", file=file or sys.stderr)
+    else:
+        print(warnings.formatwarning(message, category, filename, lineno, line), end="",
+              file=file or sys.stderr)
+
+
+_PACKAGE_DIR = str(Path(__file__).resolve().parents[1])
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
     from ..runs.threads import single_blas_thread
 
     try:
-        with single_blas_thread():  # compare / diagnose / criticism refits: one BLAS thread
+        with single_blas_thread(), warnings.catch_warnings():
+            warnings.showwarning = _show_warning  # one BLAS thread for compare / diagnose too
             return int(args.func(args) or 0)
     except KeyboardInterrupt:
         print("interrupted", file=sys.stderr)
