@@ -11,6 +11,8 @@ from __future__ import annotations
 
 from contextlib import contextmanager
 
+import numpy  # noqa: F401  (load both BLAS libraries, numpy's and scipy's, before limiting:
+import scipy.linalg  # noqa: F401  a library loaded inside the block would keep its threads)
 from threadpoolctl import threadpool_limits
 
 
