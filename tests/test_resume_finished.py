@@ -52,6 +52,15 @@ def test_ess_target_continues_until_the_new_target(finished_run, tmp_path):
     assert json.loads((run / "result.json").read_text())["n_steps"] == res["n_steps"]
 
 
+def test_library_resume_removes_a_stale_report(finished_run, tmp_path):
+    from pavement_mcmc.runs import resume
+
+    run = _copy(finished_run, tmp_path)
+    (run / "report.html").write_text("old")
+    out = resume(run, more_steps=20)
+    assert out.ran and out.report_removed and not (run / "report.html").exists()
+
+
 def test_refit_with_overwrite_removes_the_old_report(finished_run, tmp_path):
     from conftest import REPO
 

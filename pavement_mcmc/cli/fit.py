@@ -123,7 +123,7 @@ def run_resume(args: argparse.Namespace) -> int:
              "to sample more: pavement-mcmc resume RUN --more-steps N, or --ess-target X")
         return 0
     code = _report(args, out)
-    if (out.run_dir / "report.html").exists():  # the chain changed: the report follows it
+    if out.report_removed:  # the chain changed: the report follows it
         from .report import refresh
 
         print(refresh(out.run_dir), file=sys.stderr)

@@ -42,6 +42,8 @@ class FitOutput:
     findings: list = field(default_factory=list)
     #: False when :func:`~pavement_mcmc.runs.resume` found a finished run and sampled nothing
     ran: bool = True
+    #: a report.html of the old chain was removed (the command line writes it anew)
+    report_removed: bool = False
 
 
 def _sampler_for(problem: Problem, cfg):

@@ -70,6 +70,8 @@ def resume(run_dir: str | Path, *, max_seconds: float | None = None, callback=No
     A finished run (``result.json`` says converged) is left alone and returned with
     ``ran=False``, unless ``more_steps`` (sample that many steps more, whatever the stopping
     rule says) or ``ess_target`` (a new target; recorded in the run's config.json) is given.
+    When the chain grows, a ``report.html`` of the old chain is removed
+    (``report_removed=True``; the command line writes it anew).
     """
     run_dir = Path(run_dir)
     rec = _record(run_dir)
@@ -105,7 +107,10 @@ def resume(run_dir: str | Path, *, max_seconds: float | None = None, callback=No
     if ess_target is not None:  # the new target is the run's rule from now on
         rec["overrides"] = overrides
         (run_dir / "config.json").write_text(json.dumps(rec, indent=2))
-    return _finish(run_dir, problem, res)
+    report = run_dir / "report.html"  # a report of the old chain would now mislead
+    removed = report.exists()
+    report.unlink(missing_ok=True)
+    return replace(_finish(run_dir, problem, res), report_removed=removed)
 
 
 def _unchanged(run_dir: Path, problem, res: RunResult) -> FitOutput:
