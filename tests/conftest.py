@@ -29,3 +29,28 @@ def grass_csv() -> Path:
     if not GRASS.is_file():
         pytest.skip(f"the shared real record is not here ({GRASS})")
     return GRASS
+
+
+@pytest.fixture(scope="session")
+def finished_run(tmp_path_factory) -> Path:
+    """A Case A run of the fast sampler that finished by its rule (ESS target 30, ~260 steps)."""
+    from pavement_mcmc.runs import fit
+
+    root = tmp_path_factory.getbasetemp() / "finished_caseA"
+    out = fit(REPO / "runs" / "caseA.toml", root, overwrite=True, seed=2,
+              overrides={"sampler": {"kind": "fast", "ess_target": 30, "max_steps": 4000}})
+    assert out.result.converged, out.result.reason
+    return root
+
+
+@pytest.fixture(scope="session")
+def stopped_run(tmp_path_factory) -> Path:
+    """A Case A run of the fast sampler stopped by its step budget 50 steps after its 150-step
+    adaptation, far from its ESS target of 1000."""
+    from pavement_mcmc.runs import fit
+
+    root = tmp_path_factory.getbasetemp() / "stopped_caseA"
+    out = fit(REPO / "runs" / "caseA.toml", root, overwrite=True, seed=2,
+              overrides={"sampler": {"kind": "fast", "max_steps": 200}})
+    assert not out.result.converged
+    return root

@@ -74,8 +74,9 @@ def test_resume_refuses_changed_config_and_data(tmp_path):
     case = _case(tmp_path, max_steps=20)
     fit(case, tmp_path / "run")
     case.write_text(case.read_text().replace("sigma = 0.25", "sigma = 0.3"))
-    with pytest.raises(StoreMismatch, match="data.sigma"):
+    with pytest.raises(StoreMismatch, match="data.sigma") as err:
         resume(tmp_path / "run")
+    assert "changed since" not in str(err.value)  # sigma is config, not a data change (issue 11)
     case.write_text(case.read_text().replace("sigma = 0.3", "sigma = 0.25"))
     csv = tmp_path / "data" / "measurements.csv"
     lines = csv.read_text().splitlines()
@@ -83,8 +84,8 @@ def test_resume_refuses_changed_config_and_data(tmp_path):
     cells[1] = str(float(cells[1]) + 0.5)
     lines[5] = ",".join(cells)
     csv.write_text("\n".join(lines) + "\n")
-    with pytest.raises(StoreMismatch, match="data_hash"):
-        resume(tmp_path / "run")
+    with pytest.raises(StoreMismatch, match="data: .*measurements.csv changed"):
+        resume(tmp_path / "run")  # names the file that changed, not two hashes (issue 11)
 
 
 def test_to_toml_round_trips():

@@ -193,7 +193,7 @@ def test_mismatch_names_changed_key(backend, tmp_path) -> None:
     assert "priors.kappa.sd: 0.1135 -> 0.2" in msg
     assert "priors.h[1]: 10 -> 12" in msg and "new_key: added" in msg
     assert "case" not in msg
-    with pytest.raises(StoreMismatch, match="data_hash: 'abc123' -> 'zzz'"):
+    with pytest.raises(StoreMismatch, match="data: the data file changed .*data hash abc123 -> zzz"):
         store.check_compatible({**META, "data_hash": "zzz"})
     with pytest.raises(StoreMismatch, match="param_names"):
         store.check_compatible({"param_names": ["kappa", "C", "h_0"]})

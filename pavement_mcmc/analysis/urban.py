@@ -28,6 +28,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..data.checks import DataError
 from ..data.times import parse_time
 from ..solver import solve
 
@@ -153,14 +154,14 @@ def compare(
     if wind is None:
         wind = meas.wind
     if wind is None:
-        raise ValueError("the case has no 'wind' column: pass a wind record (--wind other.csv)")
+        raise DataError("the case has no 'wind' column: pass a wind record (--wind other.csv)")
     wind = np.asarray(wind, float)
     if wind.shape != (meas.n_obs,):
-        raise ValueError(f"wind has shape {wind.shape}, expected ({meas.n_obs},)")
+        raise DataError(f"wind has shape {wind.shape}, expected ({meas.n_obs},)")
     if not np.all(np.isfinite(wind)) or np.any(wind < 0):
-        raise ValueError("wind must be finite and >= 0 m s-1")
+        raise DataError("wind must be finite and >= 0 m s-1")
     if not 0 < emissivity <= 1:
-        raise ValueError(f"emissivity must be in (0, 1], got {emissivity}")
+        raise DataError(f"emissivity must be in (0, 1], got {emissivity}")
     h_std = standard_h(wind)
     p = {k: np.array([float(np.ravel(v)[0])] * 2) for k, v in values.items()}
     h_est = model.coefficients({k: v[:1] for k, v in p.items()}).h[0]
@@ -208,12 +209,12 @@ def read_wind_csv(path: str | Path, meas) -> np.ndarray:
     try:
         fh = open(path, newline="", encoding="utf-8")
     except OSError as err:
-        raise ValueError(f"{path}: cannot read the wind file ({err.strerror})") from None
+        raise DataError(f"{path}: cannot read the wind file ({err.strerror})") from None
     with fh:
         reader = csv.DictReader(fh)
         cols = [c.strip() for c in (reader.fieldnames or [])]
         if "time" not in cols or "wind" not in cols:
-            raise ValueError(f"{path}: needs the columns 'time' and 'wind', found {cols}")
+            raise DataError(f"{path}: needs the columns 'time' and 'wind', found {cols}")
         reader.fieldnames = cols
         t0 = parse_time(meas.time0)
         ts, vs = [], []
@@ -221,7 +222,7 @@ def read_wind_csv(path: str | Path, meas) -> np.ndarray:
             try:
                 v = float(row["wind"])
             except (TypeError, ValueError):
-                raise ValueError(f"{path}: column 'wind', data row {i}: {row['wind']!r} is not "
+                raise DataError(f"{path}: column 'wind', data row {i}: {row['wind']!r} is not "
                                  "a number (m s-1)") from None
             raw = (row["time"] or "").strip()
             try:
@@ -230,20 +231,20 @@ def read_wind_csv(path: str | Path, meas) -> np.ndarray:
                 try:
                     s = (parse_time(raw) - t0).total_seconds()
                 except ValueError:
-                    raise ValueError(f"{path}: column 'time', data row {i}: {raw!r} is neither "
+                    raise DataError(f"{path}: column 'time', data row {i}: {raw!r} is neither "
                                      "an ISO 8601 time nor hours") from None
             if not np.isfinite(v) or v < 0:
-                raise ValueError(f"{path}: column 'wind', data row {i}: {v} must be >= 0 m s-1")
+                raise DataError(f"{path}: column 'wind', data row {i}: {v} must be >= 0 m s-1")
             ts.append(s)
             vs.append(v)
     if len(ts) < 2:
-        raise ValueError(f"{path}: needs at least two rows")
+        raise DataError(f"{path}: needs at least two rows")
     ts, vs = np.asarray(ts), np.asarray(vs)
     order = np.argsort(ts, kind="stable")
     ts, vs = ts[order], vs[order]
     if ts[0] > meas.t[0] + 1e-6 or ts[-1] < meas.t[-1] - 1e-6:
         span = f"[{ts[0] / 3600:g}, {ts[-1] / 3600:g}] h"
-        raise ValueError(f"{path}: the wind record {span} does not cover the case window "
+        raise DataError(f"{path}: the wind record {span} does not cover the case window "
                          f"[0, {meas.t[-1] / 3600:g}] h after {meas.time0}")
     return np.interp(meas.t, ts, vs)
 

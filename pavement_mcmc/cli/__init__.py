@@ -5,9 +5,14 @@ from __future__ import annotations
 
 import argparse
 import importlib
+import platform
 import sys
+import traceback
+import warnings
+from pathlib import Path
 
 from .. import __version__
+from ..data.errors import UserError
 
 #: sub-command name -> module in this package (in the order ``--help`` lists them)
 COMMANDS = {
@@ -55,19 +60,41 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def _show_warning(message, category, filename, lineno, file=None, line=None) -> None:
+    """The package's warnings (ignored columns, time gaps, ...) as one plain line for users;
+    other libraries' warnings keep Python's format (file and line)."""
+    if str(filename).startswith(_PACKAGE_DIR):
+        print(f"warning: {message}", file=file or sys.stderr)
+    else:
+        print(warnings.formatwarning(message, category, filename, lineno, line), end="",
+              file=file or sys.stderr)
+
+
+_PACKAGE_DIR = str(Path(__file__).resolve().parents[1])
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
+    from ..runs.threads import single_blas_thread
+
     try:
-        return int(args.func(args) or 0)
+        with single_blas_thread(), warnings.catch_warnings():
+            warnings.showwarning = _show_warning  # one BLAS thread for compare / diagnose too
+            return int(args.func(args) or 0)
     except KeyboardInterrupt:
         print("interrupted", file=sys.stderr)
         return 130
-    except (ValueError, FileNotFoundError, FileExistsError, KeyError, OSError) as err:
-        # DataError, ConfigError, StoreMismatch are ValueErrors with messages for users
-        msg = err.args[0] if isinstance(err, KeyError) and err.args else err
-        print(f"pavement-mcmc {args.command}: error: {msg}", file=sys.stderr)
+    except UserError as err:  # DataError, ConfigError, StoreMismatch, RunError, ...
+        print(f"pavement-mcmc {args.command}: error: {err}", file=sys.stderr)
         return 2
+    except Exception:  # anything else is a bug: show it
+        traceback.print_exc()
+        print(f"\npavement-mcmc {args.command}: this is a bug in pavement_mcmc, not in your input. "
+              f"Please report it with the command line above and this traceback "
+              f"(pavement_mcmc {__version__}, {platform.platform()}, Python "
+              f"{platform.python_version()}).", file=sys.stderr)
+        return 1
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -8,6 +8,8 @@ import sys
 
 import numpy as np
 
+from ..data.errors import UserError
+
 
 def add_json_flag(p: argparse.ArgumentParser) -> None:
     p.add_argument("--json", action="store_true", help="print the computed figures as JSON")
@@ -35,11 +37,11 @@ def parse_assignments(items: list[str] | None) -> dict[str, float]:
     for item in items or []:
         name, sep, value = item.partition("=")
         if not sep or not name:
-            raise ValueError(f"--set expects NAME=VALUE, got {item!r}")
+            raise UserError(f"--set expects NAME=VALUE, got {item!r}")
         try:
             out[name.strip()] = float(value)
         except ValueError:
-            raise ValueError(f"--set {name}: {value!r} is not a number") from None
+            raise UserError(f"--set {name}: {value!r} is not a number") from None
     return out
 
 

@@ -53,6 +53,9 @@ def run(args) -> int:
         f"run {view.path} ({view.problem.cfg.name}): {a.n_steps} steps stored x {a.n_chains} "
         f"walkers, sampler {run_.meta.get('sampler', '?')}",
         f"burn-in: {a.burn_in} steps ({view.burn_in_source}); kept {a.n_kept} steps",
+        f"rule (the fit's stopping rule): ESS >= {a.rule.ess_min:g}, split-R-hat < "
+        f"{a.rule.rhat_max:g}, kept chain >= {a.rule.tau_factor:g} IACT; adaptation "
+        f"{a.rule.n_adapt_rows} steps (never kept)",
         *format_table(a),
         "note: " + chains_note(run_.meta.get("sampler", "")),
         f"acceptance after burn-in: {a.acceptance:.3f} (walkers min {q[0]:.2f}, median "

@@ -8,6 +8,7 @@ import sys
 import numpy as np
 
 from .common import add_json_flag, add_set_option, emit, split_assignments
+from .progress import Progress
 
 
 def add_parser(sub) -> None:
@@ -34,9 +35,15 @@ def add_parser(sub) -> None:
         "resume", help="continue an interrupted or unconverged run",
         description="Continue RUN from its last saved block (after Ctrl-C, kill -9 or a spent "
                     "budget); the chain is the same, bit for bit, as one run straight through. "
-                    "Refused if the case's config or data changed since.")
+                    "Refused if the case's config or data changed since. A finished run is left "
+                    "as it is unless --more-steps or --ess-target asks for more; a report.html "
+                    "in RUN is rebuilt when the chain grows.")
     r.add_argument("run", help="run directory, e.g. runs/caseC")
     r.add_argument("--max-seconds", type=float, help="wall-time budget of this invocation")
+    r.add_argument("--more-steps", type=int, metavar="N",
+                   help="sample N steps more, even if the run is finished")
+    r.add_argument("--ess-target", type=float, metavar="X",
+                   help="a new ESS target for the run (continues a finished run until it is met)")
     r.add_argument("--no-progress", action="store_true", help="no progress bar")
     add_json_flag(r)
     r.set_defaults(func=run_resume)
@@ -75,26 +82,49 @@ def _interrupted(run_dir) -> int:
     return 130
 
 
+def _progress(args) -> Progress | None:
+    return None if (args.no_progress or args.json) else Progress()
+
+
 def run_fit(args: argparse.Namespace) -> int:
     from ..runs import fit
 
     overrides, values = split_assignments(args.assign)
+    bar = _progress(args)
     try:
         out = fit(args.case, args.out, overwrite=args.overwrite, add=args.add,
                   set_values=values, overrides=overrides or None, sampler=args.sampler, seed=args.seed,
-                  max_seconds=args.max_seconds, ess_target=args.ess,
-                  progress=not (args.no_progress or args.json))
+                  max_seconds=args.max_seconds, ess_target=args.ess, callback=bar)
     except KeyboardInterrupt:
         return _interrupted(args.out)
+    finally:
+        if bar is not None:
+            bar.close()
     return _report(args, out)
 
 
 def run_resume(args: argparse.Namespace) -> int:
     from ..runs import resume
 
+    bar = _progress(args)
     try:
-        out = resume(args.run, max_seconds=args.max_seconds,
-                     progress=not (args.no_progress or args.json))
+        out = resume(args.run, max_seconds=args.max_seconds, callback=bar,
+                     more_steps=args.more_steps, ess_target=args.ess_target)
     except KeyboardInterrupt:
         return _interrupted(args.run)
-    return _report(args, out)
+    finally:
+        if bar is not None:
+            bar.close()
+    if not out.ran:
+        res = out.result
+        emit(args, {"run_dir": str(out.run_dir), "finished": True, "n_steps": res.n_steps,
+                    "reason": res.reason},
+             f"{out.run_dir} is finished ({res.n_steps} steps; {res.reason}); nothing to do.\n"
+             "to sample more: pavement-mcmc resume RUN --more-steps N, or --ess-target X")
+        return 0
+    code = _report(args, out)
+    if out.report_removed:  # the chain changed: the report follows it
+        from .report import refresh
+
+        print(refresh(out.run_dir), file=sys.stderr)
+    return code

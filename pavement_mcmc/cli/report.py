@@ -22,14 +22,19 @@ def add_parser(sub) -> None:
     p.set_defaults(func=run)
 
 
-def run(args) -> int:
+def refresh(run, out=None, burn_in=None, dpi: int = 80, draws: int = 100) -> str:
+    """Write the run's report (again) and return the line saying so."""
     from ..report import build_report
     from ..runs import load_view
 
-    view = load_view(args.run, burn_in=args.burn_in)
-    out = build_report(view, args.out, dpi=args.dpi, n_draws=args.draws)
+    view = load_view(run, burn_in=burn_in)
+    out = build_report(view, out, dpi=dpi, n_draws=draws)
     a = view.assessment
-    print(f"wrote {out} ({out.stat().st_size / 1e6:.1f} MB): {a.n_steps} steps x {a.n_chains} "
-          f"walkers, burn-in {a.burn_in}; " + ("converged" if a.trusted else "NOT trusted: see "
-                                                 "the verdict"))
+    return (f"wrote {out} ({out.stat().st_size / 1e6:.1f} MB): {a.n_steps} steps x {a.n_chains} "
+            f"walkers, burn-in {a.burn_in}; " + ("converged" if a.trusted else "NOT trusted: see "
+                                                   "the verdict"))
+
+
+def run(args) -> int:
+    print(refresh(args.run, args.out, args.burn_in, args.dpi, args.draws))
     return 0

@@ -12,6 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..data.errors import UserError
 from ..data.times import times_after
 from .common import add_json_flag, add_set_option, emit, split_assignments
 
@@ -41,7 +42,10 @@ def load_problem(case: str, items: list[str]):
 
     overrides, params = split_assignments(items)
     problem = build_problem(load_case(case, overrides or None))
-    return problem, parameter_values(problem.space, params)
+    try:
+        return problem, parameter_values(problem.space, params)
+    except ValueError as err:  # an unknown name or a bad value given with --set
+        raise UserError(f"--set: {err}") from None
 
 
 def describe_values(values: dict[str, float], space) -> str:

@@ -10,6 +10,7 @@
 
 from .case import CaseConfig, dump_config, load_case, merge_overrides, parse_set
 from .checks import DataError
+from .errors import RunError, RunExists, RunNotFound, UserError
 from .measurements import Measurements
 from .reader import read_csv_case
 from .schema import (
@@ -31,6 +32,10 @@ __all__ = [
     "ConfigError",
     "DataError",
     "Measurements",
+    "RunError",
+    "RunExists",
+    "RunNotFound",
+    "UserError",
     "dump_config",
     "load_case",
     "merge_overrides",

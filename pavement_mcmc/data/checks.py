@@ -16,6 +16,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .errors import UserError
 from .times import parse_time
 
 #: Cell contents read as "missing" (case-insensitive, after stripping blanks).
@@ -32,7 +33,7 @@ GAP_WARN_FACTOR = 4.0
 _TOL = 1e-9
 
 
-class DataError(ValueError):
+class DataError(UserError, ValueError):
     """Invalid case data; the message names the file, the column and the row."""
 
 

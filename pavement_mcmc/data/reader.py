@@ -207,6 +207,7 @@ def _read_table(path: str) -> _Table:
         raise DataError(f"{path}: cannot read as a UTF-8 CSV file ({exc})") from None
     if header is None:
         raise DataError(f"{path}: the file is empty (no header line, no data rows)")
+    _refuse_other_dialects(path, header, rows)
     table = _Table(path, header, rows, lines)
     seen: dict[str, int] = {}
     for k, name in enumerate(header):
@@ -224,6 +225,25 @@ def _read_table(path: str) -> _Table:
         if len(row) != len(header):
             raise table.error(f"has {len(row)} fields, the header has {len(header)}", row=i)
     return table
+
+
+def _refuse_other_dialects(path: str, header: list[str], rows: list[list[str]]) -> None:
+    """A ';'- or tab-separated file, or one with decimal commas, read as comma-separated: say
+    what it looks like instead of failing later on a missing column."""
+    for sep, name in ((";", "';'-separated"), ("\t", "tab-separated")):
+        if len(header) <= 2 and any(sep in h for h in header):
+            decimal = any(re.search(r"\d,\d", ",".join(r)) for r in rows[:20])
+            extra = " with decimal commas" if decimal else ""
+            raise DataError(
+                f"{path}: the file looks {name}{extra} (header {sep.join(header)[:60]!r}); "
+                "a case CSV is comma-separated with a decimal point: save it as CSV "
+                "(e.g. 'CSV UTF-8' with '.' as the decimal separator)")
+    sample = [r for r in rows[:20] if len(r) > len(header)]
+    if sample and all(re.fullmatch(r"-?\d+", c) for r in sample for c in r[1:]):
+        raise DataError(
+            f"{path}: the data rows have more fields than the header ({len(sample[0])} against "
+            f"{len(header)}) and hold only whole numbers: this looks like decimal commas "
+            "(14,18 for 14.18); save the file with '.' as the decimal separator")
 
 
 def _role_of(name: str) -> str | float | None:
@@ -282,11 +302,11 @@ def _resolve_columns(
             close = difflib.get_close_matches(role, ignored, n=1, cutoff=0.5)
             if not close:
                 close = [n for n in ignored if n.lower() == role.lower()][:1]
-            hint = f" (did you mean {close[0]!r}? map it with columns={{{close[0]!r}: {role!r}}})"
+            hint = (f" (did you mean {close[0]!r}? map it with columns={{{close[0]!r}: {role!r}}})"
+                    if close else "")
             raise DataError(
-                f"{path}, column {role!r}: required column is missing"
-                + (hint if close else "")
-                + f". Columns in the file: {', '.join(header)}"
+                f"{path}, column {role!r}: required column is missing{hint}. "
+                f"Columns in the file: {', '.join(header)}"
             )
     if ignored:
         warnings.warn(

@@ -15,6 +15,7 @@ import math
 from collections.abc import Mapping
 from typing import Any
 
+from .errors import UserError
 from .measurements import Measurements
 
 #: Valid top-level keys.
@@ -66,7 +67,7 @@ PARAMETER_KEYS = ("value", "lower", "upper", "vary", "prior")
 _HOUR_TOL = 1e-6
 
 
-class ConfigError(ValueError):
+class ConfigError(UserError, ValueError):
     """Invalid case configuration; the message names the file and the key."""
 
 

@@ -10,11 +10,27 @@ from .burnin import trend_z
 from .stationarity import geweke_components
 from .summarize import summary
 
-#: thresholds of the per-parameter checks
+#: thresholds of the per-parameter checks when no run's stopping rule is given (a stored run
+#: is assessed with its own rule: :class:`Rule`, the run loop's ESS target and R-hat bound)
 ESS_MIN = 100.0
 RHAT_MAX = 1.1
 TAU_FACTOR = 50.0  # the chain must be >= 50 IACT long (emcee's rule)
 GEWEKE_Z = 1.96
+
+
+@dataclass(frozen=True)
+class Rule:
+    """The stopping rule a run was held to; its diagnostics apply the same thresholds.
+
+    ess_min : ESS every parameter needs. rhat_max : split-R-hat bound. tau_factor : the kept
+    chain must be this many IACT long. n_adapt_rows : stored rows of the sampler's adaptation
+    (a burn-in never ends inside it).
+    """
+
+    ess_min: float = ESS_MIN
+    rhat_max: float = RHAT_MAX
+    tau_factor: float = TAU_FACTOR
+    n_adapt_rows: int = 0
 
 
 @dataclass
@@ -47,25 +63,36 @@ class Assessment:
     trusted: bool
     reasons: list[str]
     warnings: list[str]
+    rule: Rule = Rule()
+    #: None for a run that finished by its rule, else why it is unfinished
+    unfinished: str | None = None
 
     def to_dict(self) -> dict:
         d = {k: v for k, v in self.__dict__.items() if k != "acceptance_walkers"}
         d["acceptance_walkers"] = self.acceptance_walkers.tolist()
+        d["rule"] = dict(self.rule.__dict__)
         return d
 
     def verdict_text(self) -> str:
         if self.trusted:
-            return ("The run can be trusted: every parameter passes IACT, ESS and split-R-hat, "
+            r = self.rule
+            return (f"The run can be trusted: it finished by its stopping rule and every "
+                    f"parameter passes IACT (chain >= {r.tau_factor:g} IACT), ESS >= {r.ess_min:g}"
+                    f" and split-R-hat < {r.rhat_max:g}, "
                     "Geweke finds no more early/late differences than chance, and the kept "
                     "log-posterior does not drift.")
         return "The run can NOT be trusted yet: " + " ".join(self.reasons)
 
 
-def assess(run, burn_in: int) -> Assessment:
+def assess(run, burn_in: int, rule: Rule | None = None,
+           unfinished: str | None = None) -> Assessment:
     """Convergence diagnostics of a stored run after ``burn_in`` steps.
 
-    A parameter passes if the kept chain is at least 50 integrated autocorrelation times long,
-    its ESS is at least 100, split-R-hat < 1.1 and Geweke's |z| < 1.96. The run is trusted if
+    A parameter passes if the kept chain is at least ``rule.tau_factor`` (50) integrated
+    autocorrelation times long, its ESS is at least ``rule.ess_min``, split-R-hat <
+    ``rule.rhat_max`` and Geweke's |z| < 1.96 (default rule: ESS 100, R-hat 1.1; a stored run is
+    assessed with the rule it was sampled under). A run that did not finish by its rule
+    (``unfinished``: why) is never trusted. The run is trusted if
     none fails the other checks, no walker is stuck, the kept log-posterior does not drift and
     Geweke's test on the chain's principal components (uncorrelated, unlike the parameters:
     :func:`~pavement_mcmc.diagnostics.geweke_components`) fails for at most 10 % of them (5 %
@@ -79,8 +106,12 @@ def assess(run, burn_in: int) -> Assessment:
     kept = chain[burn_in:]
     names = list(run.param_names)
     nk = kept.shape[0]
-    reasons: list[str] = []
+    rule = rule or Rule()
+    ess_min, rhat_max, tau_factor = rule.ess_min, rule.rhat_max, rule.tau_factor
+    reasons: list[str] = [f"the run is unfinished: {unfinished}."] if unfinished else []
     warns: list[str] = []
+    if burn_in < rule.n_adapt_rows:
+        raise ValueError(f"burn-in {burn_in} ends inside the adaptation ({rule.n_adapt_rows} rows)")
     if nk < 8:
         raise ValueError(f"only {nk} steps after a burn-in of {burn_in}: too short to diagnose")
     summ = summary(kept, names)
@@ -88,9 +119,9 @@ def assess(run, burn_in: int) -> Assessment:
     n_fail_other, n_fail_gew, big_z = [], [], []
     for name in names:
         s = dict(summ[name])
-        ok_tau = np.isfinite(s["tau"]) and nk >= TAU_FACTOR * s["tau"]
-        ok_ess = s["ess"] >= ESS_MIN
-        ok_rhat = np.isfinite(s["rhat"]) and s["rhat"] < RHAT_MAX
+        ok_tau = np.isfinite(s["tau"]) and nk >= tau_factor * s["tau"]
+        ok_ess = s["ess"] >= ess_min
+        ok_rhat = np.isfinite(s["rhat"]) and s["rhat"] < rhat_max
         ok_gew = np.isfinite(s["geweke_z"]) and abs(s["geweke_z"]) < GEWEKE_Z
         s.update(tau_ok=bool(ok_tau), ess_ok=bool(ok_ess), rhat_ok=bool(ok_rhat),
                  geweke_ok=bool(ok_gew), passed=bool(ok_tau and ok_ess and ok_rhat and ok_gew))
@@ -110,14 +141,14 @@ def assess(run, burn_in: int) -> Assessment:
     taus = np.array([table[k]["tau"] for k in names])
     short = [k for k in names if not table[k]["tau_ok"]]
     if short:
-        reasons.append(f"the kept chain ({nk} steps) is shorter than {TAU_FACTOR:g} IACT for "
+        reasons.append(f"the kept chain ({nk} steps) is shorter than {tau_factor:g} IACT for "
                        f"{_list(short)} (max IACT {np.nanmax(taus):.1f} steps): run longer.")
     low_ess = [k for k in names if not table[k]["ess_ok"]]
     if low_ess:
-        reasons.append(f"ESS below {ESS_MIN:g} for {_list(low_ess)}.")
+        reasons.append(f"ESS below {ess_min:g} for {_list(low_ess)}.")
     bad_rhat = [k for k in names if not table[k]["rhat_ok"]]
     if bad_rhat:
-        reasons.append(f"split-R-hat ≥ {RHAT_MAX} for {_list(bad_rhat)} (walkers disagree).")
+        reasons.append(f"split-R-hat ≥ {rhat_max} for {_list(bad_rhat)} (walkers disagree).")
     zc = np.abs(geweke_components(kept[:: max(1, -(-nk // 4000))]))  # thinned as summary
     n_comp, fail_c = zc.size, int(np.sum(~(zc < GEWEKE_Z)))
     if big_z or np.any(~(zc <= 3.5)) or fail_c > max(1, 0.1 * n_comp):
@@ -140,7 +171,7 @@ def assess(run, burn_in: int) -> Assessment:
     if burn_in > 0.5 * n:
         warns.append(f"burn-in ({burn_in} steps) is more than half the chain.")
     return Assessment(table, acceptance, acc_w, int(burn_in), n, nk, m, drifting, tz,
-                      not reasons, reasons, warns)
+                      not reasons, reasons, warns, rule, unfinished)
 
 
 def chains_note(sampler: str) -> str:

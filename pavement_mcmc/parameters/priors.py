@@ -239,6 +239,12 @@ def prior_from_config(spec: dict) -> Prior:
     """
     spec = dict(spec)
     dist = spec.pop("dist", "truncnormal")
+    for key in ("sd", "scale"):
+        if key in spec and not (isinstance(spec[key], int | float) and 0 < spec[key] < np.inf):
+            raise ValueError(f"prior '{dist}': {key} must be a number > 0, got {spec[key]!r}")
+    lo, hi = spec.get("low", spec.get("lower")), spec.get("high", spec.get("upper"))
+    if isinstance(lo, int | float) and isinstance(hi, int | float) and not lo < hi:
+        raise ValueError(f"prior '{dist}': the lower bound {lo!r} must be below the upper {hi!r}")
     try:
         if dist == "normal":
             return Normal(float(spec["mean"]), float(spec["sd"]))

@@ -286,7 +286,10 @@ def _apply(p: Parameter, spec: dict) -> Parameter:
     if "vary" in kw:
         kw["vary"] = bool(kw["vary"])
     if "prior" in spec:
-        kw["prior"] = prior_from_config(spec["prior"])
+        try:
+            kw["prior"] = prior_from_config(spec["prior"])
+        except ValueError as err:
+            raise ValueError(f"[parameters.{p.name}] prior: {err}") from None
     return replace(p, **kw)
 
 

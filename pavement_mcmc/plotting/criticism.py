@@ -82,17 +82,40 @@ def plot_residual_correlations(report, fig: Figure | None = None) -> Figure:
     return fig
 
 
+#: bar colours of :func:`plot_ranking` by the candidate's standing in the verdict
+RANKING_STYLE = {"claimed": ("C3", "missing effect (claimed)"),
+                 "lookalike": ("C1", "look-alike (detected, not claimed)"),
+                 "prior": ("0.85", "prior-driven (not claimed)"),
+                 "other": ("0.6", "below the threshold")}
+
+
+def ranking_status(ranking, entry) -> str:
+    """'claimed', 'lookalike', 'prior' (above the threshold thanks to the priors) or 'other'."""
+    best = getattr(ranking, "best", None)
+    if best is not None and entry.name == best.name:
+        return "claimed"
+    if entry.prior_driven:
+        return "prior"
+    return "lookalike" if entry.detected else "other"
+
+
 def plot_ranking(ranking, fig: Figure | None = None) -> Figure:
-    """Penalised evidence of each candidate (bars) with the detection threshold: red for the
-    candidates claimed as detected, grey for the others (prior-driven ones included)."""
+    """Penalised evidence of each candidate (bars) with the detection threshold: red only for
+    the claimed missing effect, orange for detected look-alikes, a hatched light grey for the
+    prior-driven candidates the verdict does not claim, grey for the rest (legend)."""
     threshold = ranking.threshold
     fig = new_figure(fig, (7.0, 0.45 * len(ranking.entries) + 1.2))
     ax = fig.subplots()
-    names = [e.name for e in ranking.entries][::-1]
-    sc = np.array([e.score for e in ranking.entries][::-1])
+    entries = ranking.entries[::-1]
+    sc = np.array([e.score for e in entries])
     shown = np.sign(sc) * np.log10(1 + np.abs(sc))
-    detected = [e.detected for e in ranking.entries][::-1]
-    ax.barh(names, shown, color=["C3" if d else "0.6" for d in detected])
+    status = [ranking_status(ranking, e) for e in entries]
+    for k, st in sorted(RANKING_STYLE.items()):
+        rows = [i for i, s in enumerate(status) if s == k]
+        if rows:
+            ax.barh(rows, shown[rows], color=st[0], label=st[1],
+                    hatch="//" if k == "prior" else None, edgecolor="0.4" if k == "prior" else None)
+    ax.set_yticks(range(len(entries)), [e.name for e in entries])
     ax.axvline(np.log10(1 + threshold), color="k", ls="--", lw=0.8, label=f"threshold {threshold:g}")
     ax.set_xlabel("sign(S) log10(1 + |S|), S = penalised misfit drop")
     ax.legend(fontsize=7, loc="lower right")

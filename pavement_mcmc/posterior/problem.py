@@ -6,6 +6,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..data import ConfigError, UserError
 from ..parameters import ParameterSpace
 from ..physics import HBasis, Model
 from ..physics.materials import material
@@ -51,6 +52,25 @@ def build_problem(cfg, extensions=None, h_spec: dict | None = None, *,
         :class:`~pavement_mcmc.posterior.input_noise.InputNoise` is used as is (a candidate
         model scored against a base model shares the base's data covariance).
     """
+    try:
+        model, space, posterior = _assemble(cfg, extensions, h_spec)
+    except UserError:
+        raise
+    except ValueError as err:  # a name or value of the case's config: say which file
+        raise ConfigError(f"{getattr(cfg, 'path', 'the case')}: {err}") from None
+    sigmas = input_sigmas(cfg.data, model.meas)
+    ref = None
+    if any(np.any(v > 0) for v in sigmas.values()):
+        if isinstance(input_noise, InputNoise):
+            posterior.input_noise = input_noise
+        else:
+            theta = None if input_noise is None else _theta_at(space, input_noise)
+            ref = attach_input_noise(posterior, sigmas, theta)
+    return Problem(cfg, model, space, posterior, ref)
+
+
+def _assemble(cfg, extensions, h_spec):
+    """Model, parameter space and posterior of a case (a ValueError for a bad config value)."""
     model_cfg = cfg.model
     meas = cfg.measurements
     if model_cfg.get("top", "surface") == "measured":
@@ -71,15 +91,7 @@ def build_problem(cfg, extensions=None, h_spec: dict | None = None, *,
                                   data.get("plate_rel_sigma", 0.1))
     posterior = LogPosterior(model, space, flux_sd)
     material(model_cfg.get("material"))  # a ValueError listing the materials if unknown
-    sigmas = input_sigmas(cfg.data, meas)
-    ref = None
-    if any(np.any(v > 0) for v in sigmas.values()):
-        if isinstance(input_noise, InputNoise):
-            posterior.input_noise = input_noise
-        else:
-            theta = None if input_noise is None else _theta_at(space, input_noise)
-            ref = attach_input_noise(posterior, sigmas, theta)
-    return Problem(cfg, model, space, posterior, ref)
+    return model, space, posterior
 
 
 #: the deepest bottom boundary that ``[grid] kind = "auto"`` meets with a uniform grid, m

@@ -1,20 +1,24 @@
 """Step 6, runs: a case driven through the sampler into a run folder, and read back.
 
-- :mod:`.fit`: :func:`fit` and :func:`resume` (config -> problem -> sampler -> store -> tables);
+- :mod:`.fit`: :func:`fit` (config -> problem -> sampler -> store -> tables); :mod:`.resume`:
+  :func:`resume` (continue an unfinished run; a finished one only when asked for more);
 - :mod:`.loop`: :func:`run_sampler`, the one loop (blocks -> store, stopping rule, progress);
 - :mod:`.casefile`: the run folder's ``case.toml`` / ``config.json`` and what a resume must find
   unchanged;
 - :mod:`.load`: :func:`load_run` and :func:`point_estimate` (never re-run a sampler);
 - :mod:`.view`: :func:`load_view`, :class:`RunView` (burn-in, kept chain, posterior predictive);
 - :mod:`.tables`: the statistics table (``summary.csv`` / ``summary.md``);
+- :mod:`.threads`: :func:`single_blas_thread` (the chain must not depend on OMP_NUM_THREADS);
 - :mod:`.export`: ArviZ ``InferenceData`` of a run (optional dependency).
 """
 
 from .casefile import to_toml
-from .fit import FitOutput, fit, resume
+from .fit import FitOutput, fit
 from .load import load_run, point_estimate
 from .loop import RunResult, run_sampler
+from .resume import resume, stored_result
 from .tables import format_table, statistics_table, truth_values, write_table
+from .threads import single_blas_thread
 from .view import Predictive, RunView, load_view, predictive
 
 __all__ = [
@@ -30,7 +34,9 @@ __all__ = [
     "predictive",
     "resume",
     "run_sampler",
+    "single_blas_thread",
     "statistics_table",
+    "stored_result",
     "to_toml",
     "truth_values",
     "write_table",

@@ -21,13 +21,14 @@ from pathlib import Path
 
 import numpy as np
 
-from ..data import ConfigError, load_case, merge_overrides
+from ..data import ConfigError, RunExists, load_case, merge_overrides
 from ..posterior import Problem, build_problem, find_map
 from ..samplers import get_sampler
 from ..storage import HDF5Store, read_run
 from .casefile import store_meta, write_case_record
 from .loop import RunResult, run_sampler
 from .tables import plausibility, statistics_table, write_plausibility, write_table
+from .threads import single_blas_thread
 
 
 @dataclass
@@ -39,6 +40,10 @@ class FitOutput:
     table: list[dict]
     problem: Problem
     findings: list = field(default_factory=list)
+    #: False when :func:`~pavement_mcmc.runs.resume` found a finished run and sampled nothing
+    ran: bool = True
+    #: a report.html of the old chain was removed (the command line writes it anew)
+    report_removed: bool = False
 
 
 def _sampler_for(problem: Problem, cfg):
@@ -52,16 +57,18 @@ def _sampler_for(problem: Problem, cfg):
         raise ConfigError(f"{cfg.path}: {err}") from None
 
 
-def _run(problem, sampler, store, scfg, progress, callback, max_seconds) -> RunResult:
+def _run(problem, sampler, store, scfg, callback, max_seconds,
+         min_steps: int = 0) -> RunResult:
     return run_sampler(
         sampler, store,
         ess_target=float(scfg["ess_target"]), max_steps=int(scfg["max_steps"]),
         max_seconds=max_seconds if max_seconds is not None else scfg.get("max_seconds"),
         burn_in=scfg.get("burn_in"), thin=int(scfg.get("thin") or 1),
-        progress=progress, callback=callback,
+        callback=callback, min_steps=min_steps,
     )
 
 
+@single_blas_thread()
 def fit(
     case: str | Path,
     out: str | Path,
@@ -74,7 +81,6 @@ def fit(
     seed: int | None = None,
     max_seconds: float | None = None,
     ess_target: float | None = None,
-    progress: bool = False,
     callback=None,
 ) -> FitOutput:
     """Fit a case TOML and write the run directory ``out``.
@@ -83,13 +89,14 @@ def fit(
     ----------
     case : the case TOML.
     out : the run directory (created).
-    overwrite : replace an existing run in ``out`` (else ``FileExistsError``).
+    overwrite : replace an existing run in ``out`` (else :class:`~pavement_mcmc.data.RunExists`).
     add : extension names to add to ``model.extensions``.
     set_values : ``{name: value}`` parameter values (``parameters.NAME.value``).
     overrides : further nested config overrides (as ``--set``-style dicts).
     sampler, seed, max_seconds, ess_target : override ``sampler.kind``, ``.seed``,
         ``.max_seconds``, ``.ess_target``.
-    progress : tqdm progress bar on stderr. callback : called with a dict after every block.
+    callback : called with a dict after every block (steps, min ESS / target, phase; the
+        command line draws its progress from it).
 
     Returns
     -------
@@ -111,7 +118,7 @@ def fit(
     out = Path(out)
     h5 = out / "chain.h5"
     if h5.exists() and not overwrite:
-        raise FileExistsError(f"{out} already holds a run; pass --overwrite to replace it or "
+        raise RunExists(f"{out} already holds a run; pass --overwrite to replace it or "
                               f"'pavement-mcmc resume {out}' to continue it")
     problem = build_problem(cfg)
     smp = _sampler_for(problem, cfg)
@@ -122,42 +129,14 @@ def fit(
     smp.prepare(laplace=laplace)
     out.mkdir(parents=True, exist_ok=True)
     write_case_record(cfg, out, ov, adds)
-    for stale in ("result.json", "summary.csv", "summary.md"):
+    for stale in ("result.json", "summary.csv", "summary.md", "report.html"):
         (out / stale).unlink(missing_ok=True)
     meta = {**store_meta(cfg, scfg["kind"]), "input_ref": problem.input_ref}
     store = HDF5Store.create(h5, problem.space.free, problem.posterior.blob_names, smp.n_chains,
                              meta, overwrite=True)
     with store:
-        res = _run(problem, smp, store, scfg, progress, callback, None)
+        res = _run(problem, smp, store, scfg, callback, None)
     return _finish(out, problem, res)
-
-
-def resume(run_dir: str | Path, *, max_seconds: float | None = None, progress: bool = False,
-           callback=None) -> FitOutput:
-    """Continue a stored run from its last saved block, bit for bit.
-
-    The case is re-read from its original TOML (with the run's overrides); if that file is gone
-    the run's own ``case.toml`` is used. A changed config (other than the budgets
-    :data:`BUDGET_KEYS`) or changed data is refused with
-    :class:`~pavement_mcmc.storage.StoreMismatch` naming what changed.
-    """
-    run_dir = Path(run_dir)
-    rec = json.loads((run_dir / "config.json").read_text())
-    orig = Path(rec["toml_path"])
-    src = orig if orig.exists() else run_dir / "case.toml"
-    cfg = load_case(src, rec.get("overrides") or None, additions=rec.get("additions") or None)
-    scfg = cfg.sampler
-    store = HDF5Store.open_append(run_dir / "chain.h5")
-    with store:
-        store.check_compatible(store_meta(cfg, scfg["kind"]))
-        problem = build_problem(cfg, input_noise=store.meta.get("input_ref"))
-        state = store.state
-        if state is None:
-            raise ValueError(f"{run_dir}: the run has no saved block to resume from; fit it again")
-        smp = _sampler_for(problem, cfg)
-        smp.set_state(state)
-        res = _run(problem, smp, store, scfg, progress, callback, max_seconds)
-    return _finish(run_dir, problem, res)
 
 
 def _finish(run_dir: Path, problem: Problem, res: RunResult) -> FitOutput:

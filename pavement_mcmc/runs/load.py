@@ -7,7 +7,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..data import load_case
+from ..data import RunNotFound, load_case
 from ..posterior import Problem, build_problem
 from ..storage import RunData, read_run
 
@@ -26,6 +26,9 @@ def load_run(run_dir: str | Path) -> tuple[Problem, RunData]:
         {} while the run is still being written).
     """
     run_dir = Path(run_dir)
+    if not (run_dir / "case.toml").is_file():
+        raise RunNotFound(f"{run_dir}: not a run directory (no case.toml); give the --out folder "
+                          "of 'pavement-mcmc fit'")
     cfg = load_case(run_dir / "case.toml")
     data = read_run(run_dir / "chain.h5")
     problem = build_problem(cfg, input_noise=data.meta.get("input_ref"))

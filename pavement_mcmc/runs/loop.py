@@ -22,8 +22,9 @@ Rule (checked after every block once adaptation is over):
 Every block is appended to the store and flushed with the sampler's full state, so an
 interrupted run (Ctrl-C, ``kill -9``) loses at most the block in flight and a resume continues
 bit for bit (the sampler's random stream does not depend on block boundaries).
-Library code: nothing is printed; ``progress=True`` shows a tqdm bar on stderr and ``callback``
-receives a dict after every block.
+Library code: nothing is printed; ``callback`` receives a dict after every block (steps, the
+minimum ESS of the last check against ``ess_target``, the phase): the command line draws its
+progress from it (:mod:`pavement_mcmc.cli.progress`).
 """
 
 from __future__ import annotations
@@ -79,6 +80,12 @@ class RunResult:
     rhat: np.ndarray = field(default_factory=lambda: np.zeros(0))
     acceptance: float = float("nan")
     drifting: bool = False
+    #: the stopping rule the run was held to (diagnostics and the report apply the same one)
+    ess_target: float = 1000.0
+    rhat_max: float = 1.01
+    min_tau_lengths: float = 50.0
+    #: stored rows of the sampler's adaptation phase (never kept: burn-in >= this)
+    n_adapt_rows: int = 0
 
 
 @dataclass
@@ -190,7 +197,7 @@ def run_sampler(
     block_seconds: float = 2.0,
     min_tau_lengths: float = 50.0,
     rhat_max: float = 1.01,
-    progress: bool = False,
+    min_steps: int = 0,
     callback: Callable[[dict], None] | None = None,
 ) -> RunResult:
     """Run ``sampler`` into ``store`` until converged or out of budget.
@@ -199,7 +206,8 @@ def run_sampler(
     :meth:`Sampler.set_state` from ``store.state`` (resume; the rows already in ``store`` are
     read back for the diagnostics). ``burn_in`` and ``n_adapt`` are in steps; the adaptation
     length defaults to :data:`DEFAULT_ADAPT` (or to ``burn_in`` when given). Steps are
-    stored every ``thin``-th step. Returns a :class:`RunResult`.
+    stored every ``thin``-th step. The run does not stop on convergence before ``min_steps``
+    (a resume asked for more steps). Returns a :class:`RunResult`.
     """
     t0 = time.perf_counter()
     thin = int(thin)
@@ -222,11 +230,6 @@ def run_sampler(
     n_evals = int(loop_state.get("n_evals", sampler.n_prep_evals))
     names = list(store.param_names)
 
-    bar = None
-    if progress:
-        from tqdm.auto import tqdm
-
-        bar = tqdm(total=max_steps, initial=n_steps, unit="step", dynamic_ncols=True, leave=True)
     block = max(thin, 10 // thin * thin)
     check = None
     reason = ""
@@ -235,69 +238,68 @@ def run_sampler(
     # a kept chain shorter than SKIP_FRACTION x min_tau_lengths x (last tau_max) cannot pass:
     # such a check is skipped (the skip depends on the chain only, so runs stay reproducible)
     hint = loop_state.get("hint", [0, 0.0])  # [burn-in rows, tau_max] of the last check
-    try:
-        while True:
-            if n_steps >= max_steps:
-                reason = f"step budget exhausted ({max_steps} steps)"
+    while True:
+        if n_steps >= max_steps:
+            reason = f"step budget exhausted ({max_steps} steps)"
+            break
+        if max_seconds is not None and time.perf_counter() - t0 >= max_seconds:
+            reason = f"time budget exhausted ({max_seconds:g} s)"
+            break
+        adapt = n_steps < n_adapt
+        todo = min(block, max_steps - n_steps)
+        if adapt:
+            todo = min(todo, n_adapt - n_steps)
+        if n_steps < min_steps:
+            todo = min(todo, min_steps - n_steps)
+        if n_steps < next_check:  # end the block on the check point
+            todo = min(todo, next_check - n_steps)
+        todo = max(thin, todo // thin * thin)
+        tb = time.perf_counter()
+        b = sampler.step(todo, adapt=adapt)
+        dt = time.perf_counter() - tb
+        sel = slice(thin - 1, None, thin)
+        for th, lp, bl, acc in zip(b.chain[sel], b.logp[sel], b.blobs[sel], b.accepted[sel]):
+            store.append(th, lp, bl, acc)
+        n_steps += todo
+        n_evals += b.n_evals
+        rows.add(b.chain[sel], b.logp[sel], b.accepted[sel])
+        due = False
+        if not adapt and n_steps >= next_check:  # a check point: check unless it cannot pass
+            next_check = _round_up(max(n_steps + CHECK_FIRST, CHECK_GROWTH * n_steps), thin)
+            due = rows.n - hint[0] >= SKIP_FRACTION * min_tau_lengths * hint[1]
+        state = sampler.get_state()
+        state.extra["loop"] = {"n_steps": n_steps, "n_evals": n_evals, "n_adapt": n_adapt,
+                               "thin": thin, "next_check": next_check, "hint": hint}
+        store.flush(state)
+        # aim for blocks of ~block_seconds, but at most a quarter of the time so far, so a
+        # short run is not overshot by a long block before its first check
+        target = min(block_seconds, max(0.1, 0.25 * (time.perf_counter() - t0)))
+        block = int(np.clip(todo * target / max(dt, 1e-4), thin, 5000)) // thin * thin
+        block = max(block, thin)
+        if due and n_steps >= min_steps:
+            check = check_convergence(rows, *rows.small(), n_adapt_rows, burn_rows,
+                                      ess_target, min_tau_lengths, rhat_max, names, full=False)
+            tau_max = float(np.max(check.tau))
+            hint = [int(check.burn_in), tau_max if np.isfinite(tau_max) else 0.0]
+            if not check.failures:
+                converged = True
+                reason = (f"ESS >= {ess_target:g} for every parameter, kept chain"
+                          f" >= {min_tau_lengths:g} tau, R-hat < {rhat_max}, no drift")
                 break
-            if max_seconds is not None and time.perf_counter() - t0 >= max_seconds:
-                reason = f"time budget exhausted ({max_seconds:g} s)"
-                break
-            adapt = n_steps < n_adapt
-            todo = min(block, max_steps - n_steps)
-            if adapt:
-                todo = min(todo, n_adapt - n_steps)
-            if n_steps < next_check:  # end the block on the check point
-                todo = min(todo, next_check - n_steps)
-            todo = max(thin, todo // thin * thin)
-            tb = time.perf_counter()
-            b = sampler.step(todo, adapt=adapt)
-            dt = time.perf_counter() - tb
-            sel = slice(thin - 1, None, thin)
-            for th, lp, bl, acc in zip(b.chain[sel], b.logp[sel], b.blobs[sel], b.accepted[sel]):
-                store.append(th, lp, bl, acc)
-            n_steps += todo
-            n_evals += b.n_evals
-            rows.add(b.chain[sel], b.logp[sel], b.accepted[sel])
-            due = False
-            if not adapt and n_steps >= next_check:  # a check point: check unless it cannot pass
-                next_check = _round_up(max(n_steps + CHECK_FIRST, CHECK_GROWTH * n_steps), thin)
-                due = rows.n - hint[0] >= SKIP_FRACTION * min_tau_lengths * hint[1]
-            state = sampler.get_state()
-            state.extra["loop"] = {"n_steps": n_steps, "n_evals": n_evals, "n_adapt": n_adapt,
-                                   "thin": thin, "next_check": next_check, "hint": hint}
-            store.flush(state)
-            # aim for blocks of ~block_seconds, but at most a quarter of the time so far, so a
-            # short run is not overshot by a long block before its first check
-            target = min(block_seconds, max(0.1, 0.25 * (time.perf_counter() - t0)))
-            block = int(np.clip(todo * target / max(dt, 1e-4), thin, 5000)) // thin * thin
-            block = max(block, thin)
-            if due:
-                check = check_convergence(rows, *rows.small(), n_adapt_rows, burn_rows,
-                                          ess_target, min_tau_lengths, rhat_max, names, full=False)
-                tau_max = float(np.max(check.tau))
-                hint = [int(check.burn_in), tau_max if np.isfinite(tau_max) else 0.0]
-                if not check.failures:
-                    converged = True
-                    reason = (f"ESS >= {ess_target:g} for every parameter, kept chain"
-                              f" >= {min_tau_lengths:g} tau, R-hat < {rhat_max}, no drift")
-                    break
-            info = {"n_steps": n_steps, "n_evals": n_evals, "acceptance": float(b.accepted.mean()),
-                    "adapting": adapt,
-                    "min_ess": None if check is None else float(np.min(check.ess))}
-            if bar is not None:
-                bar.update(todo)
-                bar.set_postfix(acc=f"{info['acceptance']:.2f}",
-                                ess="adapting" if adapt else f"{info['min_ess'] or 0:.0f}")
-            if callback is not None:
-                callback(info)
-    finally:
-        if bar is not None:
-            bar.close()
+        if callback is not None:
+            callback({"n_steps": n_steps, "n_evals": n_evals, "n_adapt": n_adapt,
+                      "max_steps": max_steps, "ess_target": ess_target,
+                      "acceptance": float(b.accepted.mean()), "adapting": adapt,
+                      "min_ess": None if check is None else float(np.min(check.ess)),
+                      "elapsed": time.perf_counter() - t0})
     if not converged and n_steps >= n_adapt and rows.n:
         # stopped by a budget: one full check of everything sampled, for the report
         check = check_convergence(rows, *rows.small(), n_adapt_rows, burn_rows, ess_target,
                                   min_tau_lengths, rhat_max, names, full=True)
+        if not check.failures and n_steps >= min_steps:
+            converged = True
+            reason += (f"; converged: ESS >= {ess_target:g}, kept chain >= {min_tau_lengths:g}"
+                       f" tau, R-hat < {rhat_max}, no drift")
     if check is not None and check.failures and not converged:
         reason += "; not converged: " + "; ".join(check.failures)
     elif check is None and not converged:
@@ -311,4 +313,6 @@ def run_sampler(
         rhat=check.rhat if check else np.zeros(0),
         acceptance=check.acceptance if check else float("nan"),
         drifting=check.drifting if check else False,
+        ess_target=float(ess_target), rhat_max=float(rhat_max),
+        min_tau_lengths=float(min_tau_lengths), n_adapt_rows=int(n_adapt_rows),
     )

@@ -2,14 +2,16 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+import inspect
+from dataclasses import dataclass, field, replace
 from functools import cached_property
 from pathlib import Path
 
 import numpy as np
 
 from .. import diagnostics as dg
-from ..diagnostics.assessment import Assessment, assess
+from ..data import RunError, RunNotFound
+from ..diagnostics.assessment import Assessment, Rule, assess
 from ..parameters import parameter_values
 from ..physics import LITERATURE
 from .load import load_run
@@ -73,6 +75,8 @@ class RunView:
     burn_in: int
     burn_in_source: str = "chosen by MSER on the log-posterior trace"
     seed: int = 0
+    rule: Rule = Rule()
+    unfinished: str | None = None
     _cache: dict = field(default_factory=dict, repr=False)
 
     @property
@@ -135,17 +139,22 @@ class RunView:
 
     @cached_property
     def assessment(self) -> Assessment:
-        return assess(self.run, self.burn_in)
+        return assess(self.run, self.burn_in, self.rule, self.unfinished)
 
 
 def _run_file(path: Path) -> Path:
     if path.is_dir():
         f = path / "chain.h5"
         if not f.exists():
-            raise FileNotFoundError(f"{path}: no chain.h5 in this run directory")
+            raise RunNotFound(f"{path}: no chain.h5 in this run directory (nothing sampled yet?)")
         return f
     if not path.exists():
-        raise FileNotFoundError(f"{path}: no such run directory or file")
+        raise RunNotFound(f"{path}: no such run directory or file")
+    if path.suffix.lower() == ".toml":
+        raise RunNotFound(f"{path} is a case file, not a run: fit it first (pavement-mcmc fit "
+                          f"{path} --out {path.with_suffix('')}) and give the run directory")
+    if path.suffix.lower() not in (".h5", ".hdf5"):
+        raise RunNotFound(f"{path}: not a run directory or a chain.h5 file")
     return path
 
 
@@ -156,6 +165,30 @@ def _stored_burn_in(run, problem) -> tuple[int | None, str]:
         return int(result["burn_in"]), "chosen by the sampler loop (result.json)"
     b = problem.cfg.sampler.get("burn_in") if hasattr(problem.cfg, "sampler") else None
     return (int(b), "from the case config") if b is not None else (None, "")
+
+
+def run_rule(run, problem) -> tuple[Rule, str | None]:
+    """The stopping rule a stored run was sampled under (result.json, else its config and the
+    loop's defaults) and, unless it finished by that rule, why it is unfinished."""
+    from .loop import run_sampler
+
+    result = run.meta.get("result") or {}
+    defaults = {k: v.default for k, v in inspect.signature(run_sampler).parameters.items()}
+    scfg = getattr(problem.cfg, "sampler", {}) or {}
+    loop = (getattr(run.state, "extra", None) or {}).get("loop", {})
+    n_adapt_rows = loop.get("n_adapt", 0) // max(1, int(loop.get("thin", 1)))
+    rule = Rule(ess_min=float(result.get("ess_target", scfg.get("ess_target", defaults["ess_target"]))),
+                rhat_max=float(result.get("rhat_max", defaults["rhat_max"])),
+                tau_factor=float(result.get("min_tau_lengths", defaults["min_tau_lengths"])),
+                n_adapt_rows=int(result.get("n_adapt_rows", n_adapt_rows)))
+    if not result:
+        why = ("no result.json: the run is still being written or was stopped before it finished "
+               f"({run.n_saved} steps stored); continue it with 'pavement-mcmc resume'")
+    elif not result.get("converged"):
+        why = f"it stopped before meeting its stopping rule ({result.get('reason', '?')})"
+    else:
+        why = None
+    return rule, why
 
 
 def load_view(path: str | Path, burn_in: int | None = None, seed: int = 0) -> RunView:
@@ -177,15 +210,20 @@ def load_view(path: str | Path, burn_in: int | None = None, seed: int = 0) -> Ru
         raise ValueError(f"{f}: stored parameters {run.param_names} differ from the rebuilt "
                          f"problem's {problem.space.free}")
     if run.n_saved < 1:
-        raise ValueError(f"{f}: the run has no committed steps yet")
+        raise RunError(f"{f}: the run has no committed steps yet")
+    rule, unfinished = run_rule(run, problem)
+    n_adapt = min(rule.n_adapt_rows, run.n_saved - 1)
     src = "given"
     if burn_in is None:
         burn_in, src = _stored_burn_in(run, problem)
     if burn_in is None:
         try:
-            burn_in = dg.choose_burn_in(run.log_prob)
-            src = "chosen by MSER on the log-posterior trace"
+            burn_in = n_adapt + dg.choose_burn_in(run.log_prob[n_adapt:])
+            src = "chosen by MSER on the log-posterior trace after the adaptation"
         except ValueError:
-            burn_in, src = run.n_saved // 2, "half the chain (too short for MSER)"
+            burn_in, src = max(n_adapt, run.n_saved // 2), "half the chain (too short for MSER)"
+    if burn_in < n_adapt:
+        burn_in, src = n_adapt, f"{src}, raised to the end of the sampler's adaptation"
     burn_in = int(min(max(burn_in, 0), run.n_saved - 1))
-    return RunView(run_dir, problem, run, burn_in, src, seed)
+    return RunView(run_dir, problem, run, burn_in, src, seed, replace(rule, n_adapt_rows=n_adapt),
+                   unfinished)

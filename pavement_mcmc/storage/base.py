@@ -18,17 +18,18 @@ from abc import ABC, abstractmethod
 import numpy as np
 
 from .. import __version__
+from ..data.errors import UserError
 from ..samplers.state import RunState
 from .records import RunData, _dumps, _encode, config_diff
 
 FORMAT_VERSION = 1
 
 
-class StoreMismatch(ValueError):
+class StoreMismatch(UserError, ValueError):
     """A stored run does not match the configuration or data it is asked to continue with."""
 
 
-class StoreBusy(RuntimeError):
+class StoreBusy(UserError, RuntimeError):
     """The run file is open for writing by a live process."""
 
 
@@ -217,7 +218,12 @@ class Store(ABC):
             "n_chains": self.n_chains,
             **self.meta,
         }
-        for key in ("data_hash", "param_names", "blob_names", "n_chains", "sampler"):
+        if "data_hash" in meta_new and meta_new["data_hash"] != current.get("data_hash"):
+            src = meta_new.get("data_source", "the data file")
+            old, new = str(current.get("data_hash"))[:12], str(meta_new["data_hash"])[:12]
+            problems.append(f"data: {src} changed since the run was made (its values differ; "
+                            f"data hash {old} -> {new})")
+        for key in ("param_names", "blob_names", "n_chains", "sampler"):
             if key in meta_new and _encode(meta_new[key]) != current.get(key):
                 problems.append(f"{key}: {current.get(key)!r} -> {meta_new[key]!r}")
         if problems:

@@ -1,0 +1,120 @@
+"""Resume a stored run: continue an unfinished one bit for bit; leave a finished one alone
+unless asked for more (``more_steps``, ``ess_target``)."""
+
+from __future__ import annotations
+
+import json
+from dataclasses import fields, replace
+from pathlib import Path
+
+import numpy as np
+
+from ..data import RunError, RunNotFound, load_case, merge_overrides
+from ..posterior import build_problem
+from ..storage import HDF5Store
+from .casefile import store_meta
+from .fit import FitOutput, _finish, _run, _sampler_for
+from .loop import RunResult
+from .tables import plausibility, statistics_table
+from .threads import single_blas_thread
+
+
+def _record(run_dir: Path) -> dict:
+    """The run's config.json, or a :class:`~pavement_mcmc.data.RunNotFound` saying why not."""
+    if not run_dir.is_dir():
+        what = "is a file, not a run directory" if run_dir.exists() else "no such run directory"
+        raise RunNotFound(f"{run_dir}: {what} (a run directory is the --out of "
+                          "'pavement-mcmc fit')")
+    if not (run_dir / "config.json").is_file() or not (run_dir / "chain.h5").is_file():
+        raise RunNotFound(f"{run_dir}: nothing was written to this run directory yet (no "
+                          "config.json or chain.h5); start it again with 'pavement-mcmc fit'")
+    return json.loads((run_dir / "config.json").read_text())
+
+
+def stored_result(run_dir: Path) -> RunResult | None:
+    """The :class:`RunResult` recorded in ``result.json`` (None while the run is unfinished)."""
+    f = Path(run_dir) / "result.json"
+    if not f.is_file():
+        return None
+    rec = json.loads(f.read_text())
+    kw = {fl.name: rec[fl.name] for fl in fields(RunResult) if fl.name in rec}
+    for k in ("ess", "tau", "rhat"):
+        if k in kw:
+            kw[k] = np.asarray(kw[k], float)
+    return RunResult(**kw)
+
+
+def _data_meta(cfg, stored_meta: dict) -> dict:
+    """The store meta to compare with the stored run. The data hash covers sigma: a sigma
+    change alone is a config change (listed as such), not a data change."""
+    meta = {**store_meta(cfg, cfg.sampler["kind"]), "data_source": str(cfg.csv_path)}
+    if meta["data_hash"] != stored_meta.get("data_hash"):
+        old = json.loads(stored_meta.get("config_json", "{}")).get("data", {}).get("sigma")
+        if old is not None:
+            same = replace(cfg.measurements, sigma=float(old)).data_hash()
+            if same == stored_meta.get("data_hash"):
+                meta.pop("data_hash")
+    return meta
+
+
+@single_blas_thread()
+def resume(run_dir: str | Path, *, max_seconds: float | None = None, callback=None,
+           more_steps: int | None = None, ess_target: float | None = None) -> FitOutput:
+    """Continue a stored run from its last saved block, bit for bit.
+
+    The case is re-read from its original TOML (with the run's overrides); if that file is gone
+    the run's own ``case.toml`` is used. A changed config (other than the budgets
+    :data:`~pavement_mcmc.runs.casefile.BUDGET_KEYS`) or changed data is refused with
+    :class:`~pavement_mcmc.storage.StoreMismatch` naming what changed (the data file by name).
+
+    A finished run (``result.json`` says converged) is left alone and returned with
+    ``ran=False``, unless ``more_steps`` (sample that many steps more, whatever the stopping
+    rule says) or ``ess_target`` (a new target; recorded in the run's config.json) is given.
+    When the chain grows, a ``report.html`` of the old chain is removed
+    (``report_removed=True``; the command line writes it anew).
+    """
+    run_dir = Path(run_dir)
+    rec = _record(run_dir)
+    orig = Path(rec["toml_path"])
+    src = orig if orig.exists() else run_dir / "case.toml"
+    overrides = rec.get("overrides") or {}
+    if ess_target is not None:
+        overrides = merge_overrides(overrides, {"sampler": {"ess_target": float(ess_target)}})
+    cfg = load_case(src, overrides or None, additions=rec.get("additions") or None)
+    done = stored_result(run_dir)
+    store = HDF5Store.open_append(run_dir / "chain.h5")
+    with store:
+        store.check_compatible(_data_meta(cfg, store.meta))
+        problem = build_problem(cfg, input_noise=store.meta.get("input_ref"))
+        state = store.state
+        if state is None:
+            raise RunError(f"{run_dir}: the run has no saved block to resume from (it was "
+                           "stopped before its first block); start it again with "
+                           f"'pavement-mcmc fit ... --out {run_dir} --overwrite'")
+        if done is not None and done.converged and more_steps is None and ess_target is None:
+            return _unchanged(run_dir, problem, done)
+        scfg = dict(cfg.sampler)
+        n_done = int(state.extra.get("loop", {}).get("n_steps", 0))
+        min_steps = 0
+        if more_steps is not None:
+            scfg["max_steps"] = min_steps = n_done + int(more_steps)
+        elif n_done >= int(scfg["max_steps"]):
+            raise RunError(f"{run_dir}: the run used its whole step budget ({n_done} steps) "
+                           "without converging; ask for more with --more-steps N")
+        smp = _sampler_for(problem, cfg)
+        smp.set_state(state)
+        res = _run(problem, smp, store, scfg, callback, max_seconds, min_steps)
+    if ess_target is not None:  # the new target is the run's rule from now on
+        rec["overrides"] = overrides
+        (run_dir / "config.json").write_text(json.dumps(rec, indent=2))
+    report = run_dir / "report.html"  # a report of the old chain would now mislead
+    removed = report.exists()
+    report.unlink(missing_ok=True)
+    return replace(_finish(run_dir, problem, res), report_removed=removed)
+
+
+def _unchanged(run_dir: Path, problem, res: RunResult) -> FitOutput:
+    from ..storage import read_run
+
+    table = statistics_table(problem, read_run(run_dir / "chain.h5"), res.burn_in)
+    return FitOutput(run_dir, res, table, problem, plausibility(problem, table), ran=False)

@@ -1,0 +1,73 @@
+"""Issue 11, item 4: resume leaves a finished run alone unless asked for more, and whatever
+changes the chain refreshes the run's report."""
+
+from __future__ import annotations
+
+import json
+import shutil
+
+from pavement_mcmc.cli import main
+from pavement_mcmc.storage import read_run
+
+
+def _copy(run, tmp_path):
+    out = tmp_path / "run"
+    shutil.copytree(run, out)
+    return out
+
+
+def test_resume_of_finished_run_does_nothing(finished_run, tmp_path, capsys):
+    run = _copy(finished_run, tmp_path)
+    before = read_run(run / "chain.h5").n_saved
+    result = (run / "result.json").read_text()
+    assert main(["resume", str(run), "--no-progress"]) == 0
+    out = capsys.readouterr().out
+    assert "is finished" in out and "--more-steps" in out
+    assert read_run(run / "chain.h5").n_saved == before
+    assert (run / "result.json").read_text() == result
+
+
+def test_more_steps_extends_and_refreshes_the_report(finished_run, tmp_path, capsys):
+    run = _copy(finished_run, tmp_path)
+    before = read_run(run / "chain.h5").n_saved
+    (run / "report.html").write_text("stale")
+    assert main(["resume", str(run), "--more-steps", "40", "--no-progress"]) == 0
+    assert read_run(run / "chain.h5").n_saved == before + 40
+    assert json.loads((run / "result.json").read_text())["n_steps"] == before + 40
+    html = (run / "report.html").read_text()
+    assert html != "stale" and str(before + 40) in html
+    assert "wrote" in capsys.readouterr().err
+
+
+def test_ess_target_continues_until_the_new_target(finished_run, tmp_path):
+    run = _copy(finished_run, tmp_path)
+    before = read_run(run / "chain.h5").n_saved
+    assert main(["resume", str(run), "--ess-target", "3000", "--no-progress"]) == 0
+    res = json.loads((run / "result.json").read_text())
+    assert res["converged"] and res["ess_target"] == 3000 and min(res["ess"]) >= 3000
+    assert res["n_steps"] > before
+    rec = json.loads((run / "config.json").read_text())
+    assert rec["overrides"]["sampler"]["ess_target"] == 3000
+    assert main(["resume", str(run), "--no-progress"]) == 0  # finished under the new target
+    assert json.loads((run / "result.json").read_text())["n_steps"] == res["n_steps"]
+
+
+def test_library_resume_removes_a_stale_report(finished_run, tmp_path):
+    from pavement_mcmc.runs import resume
+
+    run = _copy(finished_run, tmp_path)
+    (run / "report.html").write_text("old")
+    out = resume(run, more_steps=20)
+    assert out.ran and out.report_removed and not (run / "report.html").exists()
+
+
+def test_refit_with_overwrite_removes_the_old_report(finished_run, tmp_path):
+    from conftest import REPO
+
+    from pavement_mcmc.runs import fit
+
+    run = _copy(finished_run, tmp_path)
+    (run / "report.html").write_text("old")
+    fit(REPO / "runs" / "caseA.toml", run, overwrite=True, seed=1,
+        overrides={"sampler": {"kind": "fast", "max_steps": 160}})
+    assert not (run / "report.html").exists()
