@@ -113,3 +113,19 @@ def test_models_without_adjoint_fall_back_to_finite_differences():
     ll_ref, g_ref = _central_grad(post, theta)
     np.testing.assert_allclose(ll, ll_ref, rtol=1e-12)
     np.testing.assert_allclose(g, g_ref, rtol=1e-3, atol=1e-4 * np.abs(g_ref).max())
+
+
+def test_proposals_piling_up_at_a_bound_are_rejected_not_raised(monkeypatch):
+    """A trajectory that keeps reflecting (a refit parameter piling up at its bound) used to
+    raise "more than 1000 reflections" mid-run; now that chain's proposal is rejected."""
+    from pavement_mcmc.samplers import hmc
+
+    monkeypatch.setattr(hmc, "_MAX_REFLECTIONS", 0)  # every bound hit counts as stuck
+    post, a = _truncated(cut_sd=0.5)
+    s = get_sampler("hmc", post, n_chains=8, seed=4)
+    s.prepare(laplace=find_map(post))
+    store = _store(post, s.n_chains)
+    run_sampler(s, store, ess_target=1e9, max_steps=200, n_adapt=50)
+    data = store.read()
+    assert np.all(np.isfinite(data.chain)) and data.chain[..., 0].min() >= a
+    assert 0.0 < data.accepted.mean() < 1.0
