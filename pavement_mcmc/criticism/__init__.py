@@ -17,11 +17,13 @@ Public API
 from __future__ import annotations
 
 from .diagnose import Diagnosis, diagnose
+from .entries import Entry, Ranking
 from .fitting import Fit, refit
 from .holdout import HoldOut, leave_one_sensor_out
 from .ledger import Ledger, ledger
-from .ranking import Entry, Ranking, finer_h_spec, rank_missing_effects
+from .ranking import finer_h_spec, rank_missing_effects
 from .residuals import ResidualReport, analyse, analyse_point, noise_like, plain_signals
+from .unexplained import Unexplained
 
 __all__ = [
     "Diagnosis",
@@ -31,6 +33,7 @@ __all__ = [
     "Ledger",
     "Ranking",
     "ResidualReport",
+    "Unexplained",
     "analyse",
     "analyse_point",
     "diagnose",
