@@ -71,7 +71,9 @@ def test_words_follow_the_numbers():
     assert rmse_change(0.2, 0.2).startswith("stays")
     assert excess_share(2.0, 1.1) == pytest.approx(1.0) and excess_share(2.0, 2.0) == 0.0
     assert coherent_profile({"a": 0.9, "b": 1.0, "c": 0.6, "d": 0.3})
-    assert not coherent_profile({"a": 0.09, "b": 0.08, "c": 0.55, "d": 0.04})
+    assert coherent_profile({"a": 0.43, "b": 0.33, "c": 0.27, "d": 0.15, "e": 0.07})  # kappa(T)
+    assert not coherent_profile({"a": 0.09, "b": 0.08, "c": 0.55, "d": 0.04})  # one sensor
+    assert not coherent_profile({"a": 0.5, "b": 0.02, "c": 0.01, "d": 0.004})  # the top one
 
 
 @pytest.mark.parametrize("name, candidates, sensor", [

@@ -30,7 +30,8 @@ through the priors: the impossible estimate is itself the evidence.
 A candidate with one of its own parameters fitted **at a bound** is never claimed: it is a sign
 that the missing effect is none of the catalogue's (see :mod:`.unexplained`). Nor is a
 per-sensor nuisance (:data:`PER_SENSOR`) whose offsets form one **coherent profile** over every
-sensor (all of one sign, none below a quarter of the largest): independent calibration errors do
+sensor (all of one sign, none below a quarter of the largest or monotone in depth,
+:func:`coherent_profile`): independent calibration errors do
 not line up with depth; a physical effect acting with depth (a buried heat source, a surface
 flux the model lacks) does.
 """
@@ -74,12 +75,20 @@ def excess_share(base_rmse_sigma: float, rmse_sigma: float) -> float:
 
 
 def coherent_profile(values: dict[str, float], min_share: float = 0.25) -> bool:
-    """Per-sensor offsets (3 or more) all of one sign and none below ``min_share`` of the largest."""
+    """Per-sensor offsets (3 or more, in depth order) all of one sign that line up with depth:
+    none below ``min_share`` of the largest, or monotone in depth with the two largest within a
+    factor 2 (one offset sensor leaves the others near zero, with either sign)."""
     v = np.array(list(values.values()), float)
     if v.size < 3 or not np.any(v):
         return False
-    same = bool(np.all(v > 0) or np.all(v < 0))
-    return same and float(np.min(np.abs(v))) >= min_share * float(np.max(np.abs(v)))
+    if not (np.all(v > 0) or np.all(v < 0)):
+        return False
+    a = np.abs(v)
+    if a.min() >= min_share * a.max():
+        return True
+    d = np.diff(a)
+    top2 = np.sort(a)[-2:]
+    return bool((np.all(d <= 0) or np.all(d >= 0)) and top2[0] >= 0.5 * top2[1])
 
 
 def score(ref: Fit, cand: Fit) -> tuple[float, float, float]:
