@@ -156,3 +156,21 @@ def test_added_parameters_start_from_a_map_of_the_extended_model():
     lp_map = pb.posterior(lap.theta[None, :])[0][0]
     lp_default = pb.posterior(pb.space.initial()[None, :])[0][0]
     assert lp_map > lp_default and np.isfinite(lp_map)
+
+
+def test_an_impossible_fit_with_a_wrong_surface_balance_points_at_the_surface():
+    """The grass record's pattern: kappa 13, C 26 MJ, the energy balance says the surface is
+    wrong, and the surface candidates score highest, each at the end of its range."""
+    from types import SimpleNamespace
+
+    from pavement_mcmc.criticism.ranking import _points_at
+
+    et = _entry(name="evapotranspiration", score=1636.0, data_score=16.0, hook="surface",
+                at_bound=["et_alpha"])
+    depth = _entry(name="sensor_depth", score=411.0, data_score=24.0, hook="observe",
+                   at_bound=["dz_2cm"])
+    wrong = SimpleNamespace(surface_wrong=True, verdict="The surface boundary is wrong: ...")
+    pts = _points_at([depth, et], wrong, 10.0)
+    assert pts["where"] == "surface energy balance" and pts["candidates"] == ["evapotranspiration"]
+    assert _points_at([depth, et], SimpleNamespace(surface_wrong=False, verdict=""), 10.0) is None
+    assert _points_at([_entry(name="sensor_depth", score=2000.0, hook="observe"), et], wrong, 10.0) is None

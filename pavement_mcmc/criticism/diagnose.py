@@ -69,5 +69,6 @@ def diagnose(
     if not problem.model.top_measured:
         alarm = any(f.level == "alarm" and f.quantity in ("kappa", "C") for f in findings)
         energy = energy_balance(problem, values, top_fit=alarm or bool(problem.model.plates))
-    ranking = rank_missing_effects(problem, values, candidates, holdout=holdout) if rank else None
+    ranking = (rank_missing_effects(problem, values, candidates, holdout=holdout, energy=energy)
+               if rank else None)
     return Diagnosis(problem, values, rep, ranking, findings, energy)

@@ -140,6 +140,8 @@ class Entry:
     at_bound : its own parameters fitted at a bound (never claimed then).
     profile : a per-sensor nuisance whose offsets form one coherent depth profile (never
         claimed then).
+    hook : where the candidate acts: ``"surface"`` (the surface energy balance or h),
+        ``"material"``, ``"observe"`` or ``"h"`` (finer_h).
     restores_plausibility : the base fit is physically impossible and this one is not.
     excess_share : share of the base fit's excess mean square misfit above :data:`FLOOR` that
         this candidate removes (1: all of it).
@@ -164,6 +166,7 @@ class Entry:
     values: dict[str, float]
     at_bound: list[str] = field(default_factory=list)
     profile: bool = False
+    hook: str = ""
     restores_plausibility: bool = False
     excess_share: float = 0.0
     loso_lpd: float | None = None
@@ -227,6 +230,9 @@ class Ranking:
     unexplained : the "none of these" analysis (:class:`~.unexplained.Unexplained`) when no
         catalogue entry explains the misfit, else None.
     findings : plausibility findings of the base fit (:class:`~pavement_mcmc.physics.materials.Finding`).
+    points_at : where the evidence points when no entry is claimed: ``{"where": "surface energy
+        balance", "candidates": [...]}`` when the energy balance (:mod:`.energy`) says the
+        surface boundary is wrong and the surface candidates score highest; else None.
     """
 
     entries: list[Entry]
@@ -239,6 +245,7 @@ class Ranking:
     threshold: float = THRESHOLD
     unexplained: object | None = None
     findings: list = field(default_factory=list)
+    points_at: dict | None = None
 
     @property
     def none_of_these(self) -> bool:
@@ -252,6 +259,7 @@ class Ranking:
             "none_of_these": self.none_of_these,
             "unexplained": None if self.unexplained is None else self.unexplained.to_dict(),
             "findings": [f.text() for f in self.findings],
+            "points_at": self.points_at,
             "lookalikes": self.lookalikes,
             "base": {
                 "chi2": self.base.chi2,

@@ -52,7 +52,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..physics import extension_names, get_extension
+from ..physics import Extension, extension_names, get_extension
 from ..physics.hbasis import FINER_H
 from ..physics.materials import check_values
 from .candidates import finer_h_spec, fit_extension, h_spec_of, h_start, variant
@@ -97,6 +97,29 @@ def _impossible(fit: Fit, declared) -> list:
     return [f for f in check_values(v.get("kappa"), v.get("C"), None, declared) if f.level == "alarm"]
 
 
+def _hook(ext) -> str:
+    if ext is None:
+        return "h"
+    t = type(ext)
+    if t.surface is not Extension.surface or ext.replaces_h:
+        return "surface"
+    return "material" if t.material is not Extension.material else "observe"
+
+
+def _points_at(entries: list[Entry], energy, threshold: float) -> dict | None:
+    """The surface energy balance, if :mod:`.energy` says the surface boundary is wrong and the
+    highest-scoring candidate acts on the surface (module doc of :mod:`.entries`)."""
+    if energy is None or not energy.surface_wrong or not entries:
+        return None
+    top = max(entries, key=lambda e: e.score)
+    surf = sorted((e for e in entries if e.hook == "surface" and e.score > threshold),
+                  key=lambda e: -e.score)
+    if top.hook != "surface" or not surf:
+        return None
+    return {"where": "surface energy balance", "candidates": [e.name for e in surf],
+            "energy_verdict": energy.verdict}
+
+
 def _entry(name, desc, ref: Fit, cand: Fit, ext, patterns, base_impossible, declared) -> Entry:
     s, data, rho = score(ref, cand)
     own = [n for n in cand.names if n not in ref.names] if ext is not None else []
@@ -119,6 +142,7 @@ def _entry(name, desc, ref: Fit, cand: Fit, ext, patterns, base_impossible, decl
         values={n: vals[n] for n in own},
         at_bound=at_bounds(cand, own),
         excess_share=excess_share(ref.rmse / sig, cand.rmse / sig),
+        hook=_hook(ext),
         profile=name in PER_SENSOR and coherent_profile({n: vals[n] for n in own}),
         restores_plausibility=bool(base_impossible) and not _impossible(cand, declared),
         fit=cand,
@@ -156,6 +180,7 @@ def rank_missing_effects(
     *,
     threshold: float = THRESHOLD,
     holdout: bool = True,
+    energy=None,
 ) -> Ranking:
     """Rank the catalogue's extensions (and a finer h(t)) by how much they would lower the misfit.
 
@@ -169,6 +194,9 @@ def rank_missing_effects(
     threshold : score above which a candidate may be claimed (its data part must also pass
         :data:`~.entries.DATA_THRESHOLD`).
     holdout : break ties between look-alikes with a leave-one-sensor-out check.
+    energy : the :class:`~.energy.EnergyBalance` of the point estimate, if known: when it says
+        the surface boundary is wrong and the surface candidates score highest, the verdict
+        names the surface energy balance even if no entry is claimed.
 
     Returns
     -------
@@ -233,5 +261,7 @@ def rank_missing_effects(
     none = _none_of_these(best, entries, rep, base)
     if none is not None and best is not None and not (best.plausibility_claim or best.partial):
         best = None  # it helps a little but does not explain: no confident claim
-    verdict = make_verdict(best, entries, lookalikes, rep, base, none, findings)
-    return Ranking(entries, base, rep, verdict, best, lookalikes, skipped, threshold, none, findings)
+    points = _points_at(entries, energy, threshold) if best is None else None
+    verdict = make_verdict(best, entries, lookalikes, rep, base, none, findings, points)
+    return Ranking(entries, base, rep, verdict, best, lookalikes, skipped, threshold, none, findings,
+                   points)

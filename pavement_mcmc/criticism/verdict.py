@@ -39,10 +39,30 @@ def rmse_change(before: float, after: float) -> str:
     return f"stays at {before:.3f} °C"
 
 
-def make_verdict(best, entries, lookalikes, rep: ResidualReport, base, none, findings) -> str:
-    """One paragraph: the missing effect (or none, or "none of these"), the plausibility
-    alarms, then the prior-driven candidates that are not claimed."""
-    txt = _verdict_main(best, entries, lookalikes, rep, base, none)
+def _where(points, entries) -> str:
+    """The sentence naming where the evidence points (the surface energy balance)."""
+    by = {e.name: e for e in entries}
+    items = []
+    for n in points["candidates"]:
+        e = by[n]
+        v = e.fit.values()
+        own = ", ".join(f"{k} = {x:.3g}" for k, x in e.values.items())
+        items.append(f"{n} ({own}{'; at the end of its range' if e.at_bound else ''}; kappa "
+                     f"{v['kappa']:.3g} W m-1 K-1, C {v['C'] * 1e-6:.3g} MJ m-3 K-1)")
+    return ("Where the model fails: the surface energy balance. The energy the model pushes into "
+            "the ground is wrong while conduction below is right (see the energy balance), and the "
+            "candidates that act on the surface balance score highest: " + "; ".join(items)
+            + ". None is claimed as it stands (its data part or its range does not suffice): the "
+            "sink or resistance at the surface is stronger than, or different from, what these "
+            "entries allow. ")
+
+
+def make_verdict(best, entries, lookalikes, rep: ResidualReport, base, none, findings,
+                 points=None) -> str:
+    """One paragraph: where the evidence points, the missing effect (or none, or "none of
+    these"), the plausibility alarms, then the prior-driven candidates that are not claimed."""
+    txt = (_where(points, entries) if points else "") + _verdict_main(
+        best, entries, lookalikes, rep, base, none)
     alarms = [f for f in findings if f.level == "alarm"]
     if alarms:
         txt += (" The base fit is physically impossible (" + "; ".join(f.text() for f in alarms)

@@ -118,14 +118,12 @@ def fit(
     problem = build_problem(cfg)
     smp = _sampler_for(problem, cfg)
     laplace = map_start(problem, cfg, list(add or []))  # new parameters start from a MAP
+    theta0 = None if laplace is None else laplace.theta
     if laplace is None and smp.needs_laplace():
         laplace = find_map(problem.posterior)
     if laplace is not None:
         smp.n_prep_evals += laplace.n_evals
-    if smp.needs_laplace():
-        smp.prepare(laplace=laplace)
-    else:
-        smp.prepare(theta0=None if laplace is None else laplace.theta)
+    smp.prepare(theta0=theta0, laplace=laplace if smp.needs_laplace() else None)
     out.mkdir(parents=True, exist_ok=True)
     write_case_record(cfg, out, ov, adds)
     for stale in ("result.json", "summary.csv", "summary.md"):
