@@ -18,7 +18,7 @@ import pytest
 from pavement_mcmc.cli import main
 from pavement_mcmc.criticism import rank_missing_effects, refit
 from pavement_mcmc.criticism.entries import Entry, coherent_profile, excess_share
-from pavement_mcmc.criticism.guards import check_run, map_vs_sampled
+from pavement_mcmc.criticism.guards import check_run, map_vs_sampled, rmse_vs_map
 from pavement_mcmc.criticism.verdict import rmse_change
 from pavement_mcmc.data import load_case
 from pavement_mcmc.posterior import build_problem
@@ -121,6 +121,8 @@ def test_guards_refuse_unfinished_and_failed_runs_and_flag_unconverged(tiny_run,
     w = map_vs_sampled({"kappa": 1.0}, {"kappa": 0.01}, {"kappa": 1.2})
     assert w is not None and "kappa" in w.text
     assert map_vs_sampled({"kappa": 1.0}, {"kappa": 0.1}, {"kappa": 1.05}) is None
+    assert "not at the mode" in rmse_vs_map("run+evaporation", 0.865, 0.302).text
+    assert rmse_vs_map("run", 0.305, 0.302) is None
 
 
 def test_add_finer_h_works_and_a_failed_fit_says_so(tmp_path, monkeypatch):

@@ -44,6 +44,12 @@ def run(args) -> int:
     for path in args.runs:
         problem, values, how, label = load_point(path)
         runs.append((label, problem, values))
+        if Path(str(path).split("+")[0]).is_dir():  # the sampled run against its MAP route
+            from ..criticism import analyse_point, refit
+            from ..criticism.guards import rmse_vs_map
+
+            g = rmse_vs_map(label, analyse_point(problem, values).rmse, refit(problem, values).rmse)
+            guards += [g] if g is not None else []
     led = ledger(runs, holdout=not args.no_holdout)
     first = Path(args.runs[0])
     fig_path = (
