@@ -47,8 +47,9 @@ def _where(points, entries) -> str:
         e = by[n]
         v = e.fit.values()
         own = ", ".join(f"{k} = {x:.3g}" for k, x in e.values.items())
+        ok = "back in the range of ground materials" if e.restores_plausibility else "still impossible"
         items.append(f"{n} ({own}{'; at the end of its range' if e.at_bound else ''}; kappa "
-                     f"{v['kappa']:.3g} W m-1 K-1, C {v['C'] * 1e-6:.3g} MJ m-3 K-1)")
+                     f"{v['kappa']:.3g} W m-1 K-1, C {v['C'] * 1e-6:.3g} MJ m-3 K-1: {ok})")
     return ("Where the model fails: the surface energy balance. The energy the model pushes into "
             "the ground is wrong while conduction below is right (see the energy balance), and the "
             "candidates that act on the surface balance score highest: " + "; ".join(items)
