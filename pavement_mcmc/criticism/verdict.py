@@ -17,8 +17,8 @@ def _prior_conflicts(entries) -> str:
     if not pd:
         return ""
     items = ", ".join(
-        f"{e.name} (S = {e.score:.0f}, of which {e.delta_prior:.0f} from the priors and "
-        f"{-e.added_params:+.1f} effective parameters; data part {e.data_score:.0f} <= "
+        f"{e.name} (S = {e.score:.0f}, of which {e.delta_prior:.0f} from the priors, with "
+        f"{e.added_params:+.1f} effective parameters; data part {e.data_score:.0f} <= "
         f"{e.data_threshold:g})"
         for e in pd
     )
