@@ -202,3 +202,16 @@ def test_a_kappa_t_twin_ranks_conductivity_temperature_over_sensor_bias(tmp_path
     kt = rk.entries[names.index("conductivity_temperature")]
     assert -0.009 < kt.values["kappa_beta"] < -0.003
     assert rk.best is None or rk.best.name == "conductivity_temperature"
+
+
+def test_a_finer_h_verdict_prints_the_config_change_and_the_case_route_works():
+    """diagnose named finer_h but printed no next step, and --add finer_h was refused."""
+    from pavement_mcmc.cli.diagnose import load_point, next_step
+
+    problem = build_problem(load_case("runs/caseA.toml"))
+    rk = rank_missing_effects(problem, refit(problem).values(), ["finer_h"], holdout=False)
+    assert rk.best is not None and rk.best.name == "finer_h", rk.verdict
+    text = "\n".join(next_step(rk))
+    assert "edges_hours = [0, 2, 4, 6," in text and "--add finer_h" in text
+    pb, _, _, label = load_point("runs/caseA.toml+finer_h")
+    assert len(pb.model.h_basis.names) == 14 and label.endswith("+finer_h")

@@ -60,8 +60,15 @@ def load_point(path: str, statistic: str = "mean"):
         from ..posterior import build_problem
 
         cfg = load_case(pth)
-        exts = list(cfg.model.get("extensions", [])) + added
+        exts = list(cfg.model.get("extensions", [])) + [a for a in added if a != FINER_H]
         problem = build_problem(cfg, extensions=exts)
+        if FINER_H in added:  # not an extension: a finer [model] h
+            from ..physics.hbasis import finer_spec
+
+            spec = finer_spec(problem.model)
+            if spec is None:
+                raise SystemExit(f"{base}+{FINER_H}: h(t) is already one value per interval")
+            problem = build_problem(cfg, extensions=exts, h_spec=spec)
         label = cfg.name + "".join(f"+{a}" for a in added)
         return problem, refit(problem).values(), "MAP fit", label
     from ..runs import point_estimate

@@ -8,7 +8,10 @@ Public API
 ----------
 - :func:`diagnose` (problem, point estimate) -> :class:`Diagnosis` (residual report + ranking);
 - :func:`~.residuals.analyse` / :func:`~.residuals.analyse_point` -> :class:`~.residuals.ResidualReport`;
-- :func:`~.ranking.rank_missing_effects` -> :class:`~.ranking.Ranking`;
+- :func:`~.ranking.rank_missing_effects` -> :class:`~.entries.Ranking` (claim rules in
+  :mod:`.entries`; "none of these" in :mod:`.unexplained`);
+- :func:`~.guards.check_run` -> findings on a stored run before it is judged;
+- :func:`~.campaign.diagnose_twins` / :func:`~.campaign.rates` -> the validation campaigns;
 - :func:`~.ledger.ledger` -> :class:`~.ledger.Ledger` (compare runs);
 - :func:`~.holdout.leave_one_sensor_out` -> :class:`~.holdout.HoldOut`;
 - :func:`~.fitting.refit` -> :class:`~.fitting.Fit` (quick MAP refit);
