@@ -102,8 +102,10 @@ def score(ref: Fit, cand: Fit) -> tuple[float, float, float]:
     return float(s), float(data - max(dp, 0.0) * log_n), float(rho)
 
 
-def at_bounds(fit: Fit, names: list[str], rel: float = 1e-3) -> list[str]:
-    """The parameters of ``names`` that ``fit`` left within ``rel`` of the span at a finite bound."""
+def at_bounds(fit: Fit, names: list[str], null: dict[str, float] | None = None,
+              rel: float = 1e-3) -> list[str]:
+    """The parameters of ``names`` that ``fit`` left within ``rel`` of the span at a finite bound
+    (not counting one that sits at its ``null`` value there: the effect is simply absent)."""
     space = fit.problem.space
     vals = fit.values()
     out = []
@@ -111,6 +113,8 @@ def at_bounds(fit: Fit, names: list[str], rel: float = 1e-3) -> list[str]:
         p = space[n]
         lo, hi = float(p.lower), float(p.upper)
         span = hi - lo if np.isfinite(hi - lo) else max(abs(vals[n]), 1.0)
+        if null and n in null and abs(vals[n] - null[n]) <= rel * span:
+            continue
         if (np.isfinite(lo) and vals[n] - lo <= rel * span) or (
             np.isfinite(hi) and hi - vals[n] <= rel * span
         ):

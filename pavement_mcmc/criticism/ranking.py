@@ -140,7 +140,7 @@ def _entry(name, desc, ref: Fit, cand: Fit, ext, patterns, base_impossible, decl
         rmse_sensors=np.sqrt(np.mean(cand.residuals**2, axis=0)).tolist(),
         evidence=_evidence(name, ext, patterns),
         values={n: vals[n] for n in own},
-        at_bound=at_bounds(cand, own),
+        at_bound=at_bounds(cand, own, None if ext is None else ext.null_values(cand.problem.meas)),
         excess_share=excess_share(ref.rmse / sig, cand.rmse / sig),
         hook=_hook(ext),
         profile=name in PER_SENSOR and coherent_profile({n: vals[n] for n in own}),
