@@ -13,11 +13,10 @@ from __future__ import annotations
 
 import json
 
-import numpy as np
 import pytest
 
 from pavement_mcmc import synthetic
-from pavement_mcmc.criticism import diagnose, refit
+from pavement_mcmc.criticism import campaign, diagnose, refit
 from pavement_mcmc.data import load_case
 from pavement_mcmc.posterior import build_problem
 from pavement_mcmc.synthetic import SyntheticSpec, default_effect, write_case
@@ -66,19 +65,8 @@ def true_rmse(cfg, effect: str | list[str] | None) -> float:
 
     ``effect``: the hidden effect, a list of them, or None.
     """
-    truth = json.loads(cfg.truth_path.read_text())
     exts = [] if effect is None else [effect] if isinstance(effect, str) else list(effect)
-    pb = build_problem(cfg, extensions=exts, h_spec={"kind": "per_interval", "smooth": False})
-    vals = {k: float(v[0]) for k, v in pb.space.values().items()}
-    vals.update(kappa=truth["kappa"], C=truth["C"])
-    h = np.asarray(truth["h_true_obs"])
-    if not pb.model.replaces_h:
-        vals.update(zip(pb.model.h_basis.names, 0.5 * (h[1:] + h[:-1]), strict=True))
-    for e in exts:
-        vals.update(truth["effects"][e])
-    p = {k: np.array([v]) for k, v in vals.items()}
-    r = pb.model.predict(p)[0, 1:] - pb.meas.T_obs[1:]
-    return float(np.sqrt(np.mean(r**2)))
+    return campaign.true_rmse(cfg, exts)
 
 
 def check(tmp_path, effect: str | None, seed: int, strength: float = 1.0) -> dict:

@@ -134,3 +134,36 @@ def test_metric_windows_replace_a_wrong_laplace_metric(windows, adapt):
     sd = np.sqrt(np.diag(post.cov))
     err = np.abs(s.L @ s.L.T - post.cov) / np.outer(sd, sd)
     assert (err.max() < 0.2) if adapt else (err.max() > 50), err.max()
+
+
+def test_proposals_piling_up_at_a_bound_are_rejected_not_raised(monkeypatch):
+    """A trajectory that keeps reflecting (a refit parameter piling up at its bound) used to
+    raise "more than 1000 reflections" mid-run; now that chain's proposal is rejected."""
+    from pavement_mcmc.samplers import hmc
+
+    monkeypatch.setattr(hmc, "_MAX_REFLECTIONS", 0)  # every bound hit counts as stuck
+    post, a = _truncated(cut_sd=0.5)
+    s = get_sampler("hmc", post, n_chains=8, seed=4)
+    s.prepare(laplace=find_map(post))
+    store = _store(post, s.n_chains)
+    run_sampler(s, store, ess_target=1e9, max_steps=200, n_adapt=50)
+    data = store.read()
+    assert np.all(np.isfinite(data.chain)) and data.chain[..., 0].min() >= a
+    assert 0.0 < data.accepted.mean() < 1.0
+
+
+def test_a_laplace_precision_that_is_not_positive_definite_is_regularised_with_a_note():
+    """``fit --add sensor_depth`` on a 3-piece case raised "Matrix is not positive definite"
+    when drawing the chains' starts from the Laplace approximation."""
+    from pavement_mcmc.posterior.map import regularised_inverse
+
+    post = LinearGaussian(seed=3)
+    lap = find_map(post)
+    k = lap.idx.size
+    bad = np.ones((k, k)) - 1e-3 * np.eye(k)  # indefinite (an offset at its bound, round-off)
+    cov, note = regularised_inverse(bad)
+    assert "not positive definite" in note and np.all(np.linalg.eigvalsh(cov) > 0)
+    assert regularised_inverse(np.eye(k))[1] == ""
+    lap.cov_z = bad  # what the old inverse could hand to the start draws
+    draws = lap.draw(np.random.default_rng(0), 50)
+    assert np.all(np.isfinite(draws))

@@ -37,12 +37,19 @@ def add_parser(sub) -> None:
 def run(args) -> int:
     from ..criticism import ledger
     from ..plotting.criticism import plot_compare
-    from .diagnose import load_point
+    from .diagnose import load_point, run_guards
 
     runs = []
+    guards = [g for path in args.runs for g in run_guards(path)]
     for path in args.runs:
         problem, values, how, label = load_point(path)
         runs.append((label, problem, values))
+        if Path(str(path).split("+")[0]).is_dir():  # the sampled run against its MAP route
+            from ..criticism import analyse_point, refit
+            from ..criticism.guards import rmse_vs_map
+
+            g = rmse_vs_map(label, analyse_point(problem, values).rmse, refit(problem, values).rmse)
+            guards += [g] if g is not None else []
     led = ledger(runs, holdout=not args.no_holdout)
     first = Path(args.runs[0])
     fig_path = (
@@ -53,5 +60,7 @@ def run(args) -> int:
     plot_compare(led).savefig(fig_path, dpi=110)
     payload = led.to_dict()
     payload["figure"] = str(fig_path)
-    emit(args, payload, led.text() + f"\nfigure: {fig_path}")
+    payload["guards"] = [g.to_dict() for g in guards]
+    warn = "".join(f"WARNING: {g.text}\n" for g in guards)
+    emit(args, payload, warn + led.text() + f"\nfigure: {fig_path}" + ("\n" + warn if warn else ""))
     return 0

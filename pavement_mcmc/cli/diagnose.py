@@ -8,8 +8,12 @@ from __future__ import annotations
 
 import argparse
 import json
+import sys
 from pathlib import Path
 
+from ..criticism.entries import DATA_THRESHOLD
+from ..criticism.ranking import finer_h_spec
+from ..physics.hbasis import FINER_H
 from .common import add_json_flag, emit
 
 HELP = "residual diagnosis and a ranked list of the physical effects the model may be missing"
@@ -31,6 +35,8 @@ def add_parser(sub) -> None:
     p.add_argument("--no-rank", action="store_true", help="residual statistics only")
     p.add_argument("--only", nargs="+", metavar="EXT", help="candidates to try (default: all)")
     p.add_argument("--median", action="store_true", help="posterior median instead of mean")
+    p.add_argument("--force", action="store_true",
+                   help="diagnose an unfinished or failed run anyway (its chain is not a posterior)")
     p.add_argument(
         "--figures",
         metavar="DIR",
@@ -54,8 +60,15 @@ def load_point(path: str, statistic: str = "mean"):
         from ..posterior import build_problem
 
         cfg = load_case(pth)
-        exts = list(cfg.model.get("extensions", [])) + added
+        exts = list(cfg.model.get("extensions", [])) + [a for a in added if a != FINER_H]
         problem = build_problem(cfg, extensions=exts)
+        if FINER_H in added:  # not an extension: a finer [model] h
+            from ..physics.hbasis import finer_spec
+
+            spec = finer_spec(problem.model)
+            if spec is None:
+                raise SystemExit(f"{base}+{FINER_H}: h(t) is already one value per interval")
+            problem = build_problem(cfg, extensions=exts, h_spec=spec)
         label = cfg.name + "".join(f"+{a}" for a in added)
         return problem, refit(problem).values(), "MAP fit", label
     from ..runs import point_estimate
@@ -81,22 +94,32 @@ def _text(dx, how: str, label: str) -> str:
             f"{s.ljung_box_p:9.1e}{s.amp_ratio:10.3f}{s.phase_error_h:+9.2f}  "
             f"{best[0]} r={best[1][0]:+.2f} z={best[1][1]:+.1f}"
         )
+    if dx.findings:
+        lines += ["", "Plausibility of the point estimate:", *[f"  {f.text()}" for f in dx.findings]]
+    if dx.energy is not None:
+        lines += ["", "Surface energy balance:", *[f"  {x}" for x in dx.energy.text().splitlines()]]
     rk = dx.ranking
     if rk is None:
         return "\n".join(lines)
     lines += [
         "",
-        "Candidates (score S = penalised misfit drop, autocorrelation-aware BIC; * detected: S > 10; "
-        "~ prior-driven: S > 10 mostly through Δprior, data part S - Δprior <= 10, not claimed):",
-        f"  {'#':<3}{'candidate':<26}{'S':>8}{'Δχ²':>9}{'Δprior':>8}{'+params':>8}"
+        f"Candidates (score S = penalised misfit drop, autocorrelation-aware BIC; D = its data part, "
+        f"the misfit drop alone, never credited for fewer parameters; * claimable: S > "
+        f"{rk.threshold:g} and D > {DATA_THRESHOLD:g}, or it brings an impossible fit back into range; "
+        "~ prior-driven: S passes through Δprior or fewer parameters, not claimed; "
+        "! a parameter of its own at a bound, or per-sensor offsets that line up with depth, "
+        "not claimed):",
+        f"  {'#':<3}{'candidate':<26}{'S':>8}{'D':>8}{'Δχ²':>9}{'Δprior':>8}{'+params':>8}"
         f"{'RMSE':>7}{'/σ':>6}  {'':<4}",
     ]
     for i, e in enumerate(rk.entries, 1):
-        mark = "*" if e.detected else "~" if e.prior_driven else " "
+        mark = "*" if e.detected else "!" if e.at_bound or e.profile else "~" if e.prior_driven else " "
         lines.append(
-            f"{mark} {i:<3}{e.name:<26}{e.score:8.1f}{e.delta_chi2:9.1f}"
+            f"{mark} {i:<3}{e.name:<26}{e.score:8.1f}{e.data_score:8.1f}{e.delta_chi2:9.1f}"
             f"{e.delta_prior:8.1f}{e.added_params:8.2f}{e.rmse:7.3f}{e.rmse_sigma:6.2f}"
             + (f"  LOSO lpd {e.loso_lpd:+.3f}" if e.loso_lpd is not None else "")
+            + (f"  at bound: {', '.join(e.at_bound)}" if e.at_bound else "")
+            + ("  offsets: one coherent depth profile" if e.profile else "")
         )
         if i <= 3 or e.detected:
             for ev in e.evidence:
@@ -106,7 +129,24 @@ def _text(dx, how: str, label: str) -> str:
     for k, why in rk.skipped.items():
         lines.append(f"  (not tried: {k}: {why})")
     lines += ["", rk.verdict]
-    if rk.best is not None and rk.best.name != "finer_h":
+    if rk.unexplained is not None:
+        lines += ["", *rk.unexplained.text().splitlines()[1:]]
+    lines += next_step(rk)
+    return "\n".join(lines)
+
+
+def next_step(rk) -> list[str]:
+    """The command or config change that acts on the verdict (empty if there is none)."""
+    lines = []
+    if rk.best is not None and rk.best.name == FINER_H:
+        spec = finer_h_spec(rk.base.problem)
+        edges = ", ".join(f"{x:g}" for x in spec["edges_hours"])
+        lines.append(
+            "Next: give h(t) finer pieces: in the case file set\n"
+            f"  [model]\n  h = {{ kind = \"pieces\", edges_hours = [{edges}] }}\n"
+            f"or run: pavement-mcmc fit <case.toml> --add {FINER_H} --out <new run> (the same "
+            "change), then pavement-mcmc compare <this run> <new run>")
+    elif rk.best is not None:
         order = [e.name for e in rk.best.fit.problem.model.extensions]
         if order[-1] != rk.best.name:  # it must come before the model's other extensions
             lines.append(
@@ -118,14 +158,35 @@ def _text(dx, how: str, label: str) -> str:
                 f"Next: pavement-mcmc fit <case.toml> --add {rk.best.name} --out <new run>, "
                 "then pavement-mcmc compare <this run> <new run>"
             )
-    return "\n".join(lines)
+    elif rk.unexplained is not None:
+        lines.append("Next: write the extension (template above) in a module of your own, then "
+                     "pavement-mcmc diagnose <case.toml>+mymodule:MyEffect to score it")
+    return lines
+
+
+def run_guards(path: str) -> list:
+    """:func:`~pavement_mcmc.criticism.guards.check_run` of a run directory ([] for a TOML)."""
+    from ..criticism.guards import check_run
+
+    base = str(path).split("+")[0]
+    return check_run(base) if Path(base).is_dir() else []
 
 
 def run(args) -> int:
     from ..criticism import diagnose
+    from ..criticism.guards import map_vs_sampled, sampled_sd
 
+    guards = run_guards(args.run)
+    refuse = [g for g in guards if g.level == "refuse"]
+    if refuse and not args.force:
+        for g in refuse:
+            print(f"error: {g.text}; refusing to diagnose it (--force to do it anyway)", file=sys.stderr)
+        return 2
     problem, values, how, label = load_point(args.run, "median" if args.median else "mean")
     dx = diagnose(problem, values, rank=not args.no_rank, candidates=args.only)
+    if Path(args.run).is_dir() and dx.ranking is not None:
+        g = map_vs_sampled(values, sampled_sd(args.run), dx.ranking.base.values())
+        guards += [g] if g is not None else []
     figdir = Path(args.figures) if args.figures else (Path(args.run) if Path(args.run).is_dir() else None)
     figs = []
     if figdir is not None:
@@ -143,6 +204,10 @@ def run(args) -> int:
             figs.append(str(figdir / name))
     payload = dx.to_dict()
     payload["figures"] = figs
+    payload["guards"] = [g.to_dict() for g in guards]
     text = _text(dx, how, label) + ("\nfigures: " + ", ".join(figs) if figs else "")
+    if guards:
+        warn = "\n".join(f"WARNING: {g.text}" for g in guards)
+        text = f"{warn}\n\n{text}\n\n{warn}"
     emit(args, payload, text)
     return 0

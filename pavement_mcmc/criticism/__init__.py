@@ -8,7 +8,10 @@ Public API
 ----------
 - :func:`diagnose` (problem, point estimate) -> :class:`Diagnosis` (residual report + ranking);
 - :func:`~.residuals.analyse` / :func:`~.residuals.analyse_point` -> :class:`~.residuals.ResidualReport`;
-- :func:`~.ranking.rank_missing_effects` -> :class:`~.ranking.Ranking`;
+- :func:`~.ranking.rank_missing_effects` -> :class:`~.entries.Ranking` (claim rules in
+  :mod:`.entries`; "none of these" in :mod:`.unexplained`);
+- :func:`~.guards.check_run` -> findings on a stored run before it is judged;
+- :func:`~.campaign.diagnose_twins` / :func:`~.campaign.rates` -> the validation campaigns;
 - :func:`~.ledger.ledger` -> :class:`~.ledger.Ledger` (compare runs);
 - :func:`~.holdout.leave_one_sensor_out` -> :class:`~.holdout.HoldOut`;
 - :func:`~.fitting.refit` -> :class:`~.fitting.Fit` (quick MAP refit);
@@ -17,11 +20,13 @@ Public API
 from __future__ import annotations
 
 from .diagnose import Diagnosis, diagnose
+from .entries import Entry, Ranking
 from .fitting import Fit, refit
 from .holdout import HoldOut, leave_one_sensor_out
 from .ledger import Ledger, ledger
-from .ranking import Entry, Ranking, finer_h_spec, rank_missing_effects
+from .ranking import finer_h_spec, rank_missing_effects
 from .residuals import ResidualReport, analyse, analyse_point, noise_like, plain_signals
+from .unexplained import Unexplained
 
 __all__ = [
     "Diagnosis",
@@ -31,6 +36,7 @@ __all__ = [
     "Ledger",
     "Ranking",
     "ResidualReport",
+    "Unexplained",
     "analyse",
     "analyse_point",
     "diagnose",

@@ -2,20 +2,25 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
+from ..physics.materials import check_values
+from .energy import EnergyBalance, energy_balance
 from .ranking import Ranking, rank_missing_effects
 from .residuals import ResidualReport, analyse_point
 
 
 @dataclass
 class Diagnosis:
-    """Residual report at the point estimate and (optionally) the missing-effect ranking."""
+    """Residual report at the point estimate, the plausibility findings of its kappa, C and h,
+    the energy balance of the surface (:mod:`.energy`) and (optionally) the missing-effect ranking."""
 
     problem: object
     values: dict[str, float]
     residuals: ResidualReport
     ranking: Ranking | None
+    findings: list = field(default_factory=list)
+    energy: EnergyBalance | None = None
 
     def to_dict(self) -> dict:
         out = {
@@ -23,6 +28,9 @@ class Diagnosis:
             "point_estimate": self.values,
             "residuals": self.residuals.to_dict(),
         }
+        out["plausibility"] = [f.text() for f in self.findings]
+        if self.energy is not None:
+            out["energy_balance"] = self.energy.to_dict()
         if self.ranking is not None:
             out["ranking"] = self.ranking.to_dict()
         return out
@@ -53,5 +61,14 @@ def diagnose(
     """
     values = dict(values or problem.space.value_dict())
     rep = analyse_point(problem, values)
-    ranking = rank_missing_effects(problem, values, candidates, holdout=holdout) if rank else None
-    return Diagnosis(problem, values, rep, ranking)
+    space = problem.space
+    h = [values[n] for n in space.free if space[n].group == "h" and n in values]
+    declared = problem.cfg.model.get("material") if hasattr(problem.cfg, "model") else None
+    findings = check_values(values.get("kappa"), values.get("C"), h or None, declared)
+    energy = None
+    if not problem.model.top_measured:
+        alarm = any(f.level == "alarm" and f.quantity in ("kappa", "C") for f in findings)
+        energy = energy_balance(problem, values, top_fit=alarm or bool(problem.model.plates))
+    ranking = (rank_missing_effects(problem, values, candidates, holdout=holdout, energy=energy)
+               if rank else None)
+    return Diagnosis(problem, values, rep, ranking, findings, energy)

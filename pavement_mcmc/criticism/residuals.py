@@ -13,7 +13,8 @@ Statistics per sensor
 - the diurnal (24 h) harmonic: ``a + b t + c cos(wt) + d sin(wt)`` fitted by least squares to
   the measured and to the predicted series; amplitude ratio predicted/measured and phase
   error in hours (positive: the model's wave comes *later* than the measured one);
-- the correlation of the residuals with forcing and derived signals (q_net, wind, T_air - T_s,
+- the correlation of the residuals with forcing and derived signals (q_net, its daytime part
+  q_net+ = max(q_net, 0), wind, T_air - T_s,
   dT_s/dt, rain (decayed with a 3 h memory), the sensor's own temperature, time of day sin/cos),
   with a z-score that uses Bartlett's effective sample size
   :math:`n_\mathrm{eff} = n (1-\rho_x\rho_y)/(1+\rho_x\rho_y)` for two AR(1) series, so that
@@ -30,7 +31,7 @@ from scipy import stats
 from ..data.times import hour_of_day as clock_hours
 
 DAY = 86400.0
-SIGNALS = ("q_net", "wind", "T_air-T_s", "dT_s/dt", "rain", "T_sensor", "tod_sin", "tod_cos")
+SIGNALS = ("q_net", "q_net+", "wind", "T_air-T_s", "dT_s/dt", "rain", "T_sensor", "tod_sin", "tod_cos")
 
 
 def lag1(x: np.ndarray) -> float:
@@ -188,6 +189,7 @@ def derived_signals(meas, T_surface: np.ndarray | None = None) -> dict[str, np.n
     """
     Ts = meas.T_obs[:, 0] if T_surface is None else np.asarray(T_surface, float)
     out = {"q_net": np.asarray(meas.q_net, float)}
+    out["q_net+"] = np.maximum(out["q_net"], 0.0)
     if meas.wind is not None:
         out["wind"] = np.asarray(meas.wind, float)
     out["T_air-T_s"] = meas.T_air - Ts

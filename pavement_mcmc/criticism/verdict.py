@@ -1,64 +1,113 @@
-"""The ranking's verdict in plain words (see :mod:`.ranking` for the scores)."""
+"""The ranking's verdict in plain words (see :mod:`.ranking` and :mod:`.entries` for the scores).
+
+Words follow the numbers: the RMSE "falls" only when the refit's is lower than the base
+refit's (both MAP fits of the same data); a candidate that helps without explaining is
+"partly"; a claim through plausibility says what was impossible.
+"""
 
 from __future__ import annotations
 
+from .entries import DATA_THRESHOLD
 from .residuals import ResidualReport, noise_like
 
 
-def _prior_conflicts(entries, threshold) -> str:
+def _prior_conflicts(entries) -> str:
     """A sentence on the prior-driven candidates ('' if none)."""
-    pd = [e for e in entries if e.prior_driven]
+    pd = [e for e in entries if e.prior_driven and not e.detected]
     if not pd:
         return ""
     items = ", ".join(
-        f"{e.name} (S = {e.score:.0f}, of which {e.delta_prior:.0f} from the priors; data part "
-        f"{e.data_score:.0f} <= {threshold:g})"
+        f"{e.name} (S = {e.score:.0f}, of which {e.delta_prior:.0f} from the priors, with "
+        f"{e.added_params:+.1f} effective parameters; data part {e.data_score:.0f} <= "
+        f"{e.data_threshold:g})"
         for e in pd
     )
     return (
-        f" Not claimed: {items}. The data alone cannot tell such a candidate from a shift of the "
-        "other parameters (for radiation_factor: a common scale of kappa, C and h); its score "
-        "reflects a conflict between the data and the priors (e.g. on kappa and C), not a "
-        "detected effect."
+        f" Not claimed: {items}. Its score does not come from a better fit to the data: the "
+        "data alone cannot tell such a candidate from a shift of the other parameters (for "
+        "radiation_factor: a common scale of kappa, C and h); it reflects a conflict between the "
+        "data and the priors (e.g. on kappa and C), not a detected effect."
     )
 
 
-def make_verdict(best, entries, lookalikes, rep: ResidualReport, threshold) -> str:
-    """One paragraph: the missing effect (or none, or unexplained structure), then the
-    prior-driven candidates that are not claimed."""
-    return _verdict_main(best, entries, lookalikes, rep, threshold) + _prior_conflicts(entries, threshold)
+def rmse_change(before: float, after: float) -> str:
+    """'falls from a to b' / 'rises from a to b' / 'stays at a' (°C), as the numbers say."""
+    if after < before - 5e-4:
+        return f"falls from {before:.3f} to {after:.3f} °C"
+    if after > before + 5e-4:
+        return f"rises from {before:.3f} to {after:.3f} °C"
+    return f"stays at {before:.3f} °C"
 
 
-def _verdict_main(best, entries, lookalikes, rep: ResidualReport, threshold) -> str:
+def _where(points, entries) -> str:
+    """The sentence naming where the evidence points (the surface energy balance)."""
+    by = {e.name: e for e in entries}
+    items = []
+    for n in points["candidates"]:
+        e = by[n]
+        v = e.fit.values()
+        own = ", ".join(f"{k} = {x:.3g}" for k, x in e.values.items())
+        ok = "back in the range of ground materials" if e.restores_plausibility else "still impossible"
+        items.append(f"{n} ({own}{'; at the end of its range' if e.at_bound else ''}; kappa "
+                     f"{v['kappa']:.3g} W m-1 K-1, C {v['C'] * 1e-6:.3g} MJ m-3 K-1: {ok})")
+    return ("Where the model fails: the surface energy balance. The energy the model pushes into "
+            "the ground is wrong while conduction below is right (see the energy balance), and the "
+            "candidates that act on the surface balance score highest: " + "; ".join(items)
+            + ". None is claimed as it stands (its data part or its range does not suffice): the "
+            "sink or resistance at the surface is stronger than, or different from, what these "
+            "entries allow. ")
+
+
+def make_verdict(best, entries, lookalikes, rep: ResidualReport, base, none, findings,
+                 points=None) -> str:
+    """One paragraph: where the evidence points, the missing effect (or none, or "none of
+    these"), the plausibility alarms, then the prior-driven candidates that are not claimed."""
+    txt = (_where(points, entries) if points else "") + _verdict_main(
+        best, entries, lookalikes, rep, base, none)
+    alarms = [f for f in findings if f.level == "alarm"]
+    if alarms:
+        txt += (" The base fit is physically impossible (" + "; ".join(f.text() for f in alarms)
+                + "): the model is misspecified whatever the priors.")
+    return txt + _prior_conflicts(entries)
+
+
+def _verdict_main(best, entries, lookalikes, rep, base, none) -> str:
     if best is not None:
-        txt = (
-            f"Missing effect: {best.name} (score {best.score:.0f}; RMSE would fall from "
-            f"{rep.rmse:.3f} to {best.rmse:.3f} °C = {best.rmse_sigma:.2f} σ)."
-        )
+        head = "Missing effect" if none is None else "Missing effect (partly)"
+        txt = (f"{head}: {best.name} (score {best.score:.0f}, data part {best.data_score:.0f}; "
+               f"the MAP RMSE {rmse_change(base.rmse, best.rmse)} = {best.rmse_sigma:.2f} σ).")
+        if best.plausibility_claim:
+            v = best.fit.values()
+            txt += (f" It brings kappa = {v['kappa']:.3g} W m-1 K-1 and C = {v['C'] * 1e-6:.3g} "
+                    "MJ m-3 K-1 back into the range of ground materials without a worse fit.")
         others = [n for n in lookalikes if n != best.name]
         if others:
-            txt += (
-                f" Look-alikes with a similar in-sample score: {', '.join(others)}; "
-                f"{best.name} predicts held-out sensors best."
-            )
+            txt += (f" Look-alikes with a similar in-sample score: {', '.join(others)}; "
+                    f"{best.name} predicts held-out sensors best.")
         if best.name == "radiation_factor":
             txt += (
-                f" Caveat: a radiation factor is identifiable only through the priors on kappa and "
+                " Caveat: a radiation factor is identifiable only through the priors on kappa and "
                 f"C (scale symmetry with kappa, C and h; {best.delta_prior:.0f} of the score comes "
                 "from the priors): it is a radiometer error only if those priors are right."
             )
+        if none is not None:
+            txt += (f" It removes {100 * best.excess_share:.0f} % of the excess misfit; something "
+                    "else is missing too (add it, then diagnose again). ")
+            txt += none.text().splitlines()[0]
         return txt
+    if none is not None:
+        return none.text().splitlines()[0] + (
+            f" Leftover largest at {none.sensor}"
+            + (f", following {none.follows[0]} (r = {none.follows[1]:+.2f})" if none.follows else "")
+            + "; see the table below for how to write the extension.")
     if noise_like(rep):
         return (
             f"No missing effect detected: RMSE {rep.rmse:.3f} °C = {rep.rmse_sigma:.2f} σ is "
             f"within the misfit floor and the residuals show no significant structure "
-            f"(no candidate scores above {threshold:g} on the data)."
+            f"(no candidate's data part passes {DATA_THRESHOLD:g})."
         )
     best_data = max((e.data_score for e in entries), default=float("nan"))
-    corr = rep.strongest_correlations(z_min=3.0, k=3)
-    words = "; ".join(f"{lab} with {name} (r = {r:+.2f})" for lab, name, r, _ in corr) or "none"
     return (
-        f"The residuals are structured (RMSE {rep.rmse:.3f} °C = {rep.rmse_sigma:.2f} σ, "
-        f"lag-1 {rep.rho:.2f}) but no catalogue entry explains them (best data part "
-        f"{best_data:.0f} <= {threshold:g}). Strongest correlations: {words}."
+        f"No missing effect claimed: no candidate's data part passes {DATA_THRESHOLD:g} (best "
+        f"{best_data:.0f}); RMSE {rep.rmse:.3f} °C = {rep.rmse_sigma:.2f} σ, lag-1 {rep.rho:.2f}."
     )

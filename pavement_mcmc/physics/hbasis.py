@@ -7,6 +7,7 @@ n_pieces) of overlap fractions (rows sum to 1).
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -82,3 +83,25 @@ class HBasis:
         """h on each observation interval, shape (n_sets, n_intervals)."""
         H = np.stack([p[n] for n in self.names], axis=-1)
         return H @ self.W.T
+
+
+#: the name under which a finer h(t) is a candidate of the criticism and a ``fit --add`` value
+FINER_H = "finer_h"
+
+
+def finer_spec(model) -> dict | None:
+    """The ``[model] h`` setting of an h(t) finer than ``model``'s: every piece longer than 2 h
+    cut into pieces of at most 2 h, shorter ones halved. None if h is already one value per
+    interval or given by an extension."""
+    if model.replaces_h:
+        return None
+    b = model.h_basis
+    if len(b.names) >= model.meas.n_obs - 1:
+        return None
+    e = b.edges / 3600.0
+    new = []
+    for a, c in zip(e[:-1], e[1:], strict=True):
+        k = max(2, math.ceil((c - a) / 2.0 - 1e-9))
+        new.extend(np.linspace(a, c, k + 1)[:-1].tolist())
+    new.append(float(e[-1]))
+    return {"kind": "pieces", "edges_hours": [round(x, 6) for x in new], "smooth": bool(b.smooth)}

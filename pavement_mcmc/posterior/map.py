@@ -30,7 +30,8 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy import optimize
 
-__all__ = ["Laplace", "ScaledResiduals", "find_map", "parameter_scales"]
+__all__ = ["Laplace", "ScaledResiduals", "find_map", "parameter_scales", "psd_factor",
+           "regularised_inverse"]
 
 
 @dataclass
@@ -56,6 +57,8 @@ class Laplace:
     n_evals : posterior evaluations (parameter sets solved) spent.
     rmse : (n_sensors,) RMSE per sensor at the MAP, degC.
     message : the optimiser's last message.
+    notes : what was done to the approximation (e.g. a precision that was not positive definite
+        and was regularised).
     """
 
     names: list[str]
@@ -77,6 +80,7 @@ class Laplace:
     logc: np.ndarray | None = None
     cov_z: np.ndarray | None = None
     theta_ls: np.ndarray | None = None
+    notes: list = field(default_factory=list)
 
     def to_theta(self, Z: np.ndarray) -> np.ndarray:
         """Working coordinates ``z`` (n, len(idx)) -> theta[idx] (log for ``logc``, else scaled)."""
@@ -87,7 +91,7 @@ class Laplace:
         """``n`` draws of every free parameter from the Gaussian approximation in the working
         coordinates (log-normal for log-parameterised ones and for gamma)."""
         k = self.idx.size
-        Lc = np.linalg.cholesky(self.cov_z + 1e-14 * np.trace(self.cov_z) / k * np.eye(k))
+        Lc = psd_factor(self.cov_z) if k else np.zeros((0, 0))
         Z = self.z + inflate * rng.standard_normal((n, k)) @ Lc.T
         out = np.repeat(self.theta[None, :], n, axis=0)
         out[:, self.idx] = self.to_theta(Z)
@@ -278,7 +282,7 @@ def find_map(posterior, theta0: np.ndarray | None = None, *, em_max_iter: int = 
     if gmrf_cols is not None:
         D = np.diff(np.eye(N), axis=0) * dz[gmrf_cols][None, :]
         B[np.ix_(gmrf_cols, gmrf_cols)] = D.T @ D
-    cov_z = np.linalg.inv(K + 1e-12 * np.trace(K) / k * np.eye(k))
+    cov_z, note = regularised_inverse(K)
     cov = np.zeros((len(free), len(free)))
     cov[np.ix_(idx, idx)] = cov_z * np.outer(dz, dz)
     theta_map = res_fn.theta(z)[0]
@@ -293,8 +297,43 @@ def find_map(posterior, theta0: np.ndarray | None = None, *, em_max_iter: int = 
         gamma_index=gi, gamma_hat=gamma, n_gmrf=N,
         gmrf_cols=gmrf_cols if gmrf_cols is not None else np.zeros(0, int),
         n_evals=res_fn.n_evals + 1, rmse=blobs[0], message=str(msg), history=history,
-        z=z, logc=logc, cov_z=cov_z, theta_ls=theta_ls,
+        z=z, logc=logc, cov_z=cov_z, theta_ls=theta_ls, notes=[note] if note else [],
     )
+
+
+#: eigenvalues of a Laplace precision below this fraction of the largest are raised to it
+EIG_FLOOR = 1e-10
+
+
+def regularised_inverse(K: np.ndarray) -> tuple[np.ndarray, str]:
+    """``(K^-1, note)`` for a symmetric precision ``K``; eigenvalues below :data:`EIG_FLOOR`
+    times the largest (directions the data and priors do not pin, e.g. a parameter at its bound,
+    or round-off making ``J^T J`` indefinite) are raised to that floor, and ``note`` says so
+    (``""`` when nothing was changed)."""
+    k = K.shape[0]
+    if k == 0:
+        return np.zeros((0, 0)), ""
+    w, V = np.linalg.eigh(0.5 * (K + K.T))
+    floor = EIG_FLOOR * max(float(w.max()), 1e-300)
+    bad = w < floor
+    note = ""
+    if bad.any():
+        note = (f"Laplace precision not positive definite: {int(bad.sum())} of {k} eigenvalues "
+                f"raised to {EIG_FLOOR:g} x the largest (directions the data and priors do not "
+                "pin, e.g. a parameter at its bound); the covariance is regularised there")
+    w = np.maximum(w, floor)
+    return (V / w) @ V.T, note
+
+
+def psd_factor(cov: np.ndarray) -> np.ndarray:
+    """A factor ``L`` with ``L L^T = cov`` (Cholesky; the symmetric square root with negative
+    round-off eigenvalues set to 0 when Cholesky fails)."""
+    k = cov.shape[0]
+    try:
+        return np.linalg.cholesky(cov + 1e-14 * np.trace(cov) / k * np.eye(k))
+    except np.linalg.LinAlgError:
+        w, V = np.linalg.eigh(0.5 * (cov + cov.T))
+        return V * np.sqrt(np.maximum(w, 0.0))
 
 
 def _refine_log(res_fn, z, gamma, lo_z, hi_z, max_iter: int = 60):

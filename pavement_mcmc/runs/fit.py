@@ -27,6 +27,7 @@ from ..samplers import get_sampler
 from ..storage import HDF5Store, read_run
 from .casefile import store_meta, write_case_record
 from .loop import RunResult, run_sampler
+from .start import map_start, resolve_finer_h
 from .tables import plausibility, statistics_table, write_plausibility, write_table
 from .threads import single_blas_thread
 
@@ -109,6 +110,7 @@ def fit(
                                 ("ess_target", ess_target)) if v is not None}
     if samp:
         ov = merge_overrides(ov, {"sampler": samp})
+    ov, add = resolve_finer_h(case, ov, list(add or []))
     adds = {"model": {"extensions": list(add)}} if add else {}
     cfg = load_case(case, ov or None, additions=adds or None)
     if cfg.sampler.get("seed") is None:  # record a seed so the run can be reproduced
@@ -122,11 +124,13 @@ def fit(
                               f"'pavement-mcmc resume {out}' to continue it")
     problem = build_problem(cfg)
     smp = _sampler_for(problem, cfg)
-    laplace = None
-    if smp.needs_laplace():
+    laplace = map_start(problem, cfg, list(add or []))  # new parameters start from a MAP
+    theta0 = None if laplace is None else laplace.theta
+    if laplace is None and smp.needs_laplace():
         laplace = find_map(problem.posterior)
+    if laplace is not None:
         smp.n_prep_evals += laplace.n_evals
-    smp.prepare(laplace=laplace)
+    smp.prepare(theta0=theta0, laplace=laplace if smp.needs_laplace() else None)
     out.mkdir(parents=True, exist_ok=True)
     write_case_record(cfg, out, ov, adds)
     for stale in ("result.json", "summary.csv", "summary.md", "report.html"):
@@ -135,8 +139,18 @@ def fit(
     store = HDF5Store.create(h5, problem.space.free, problem.posterior.blob_names, smp.n_chains,
                              meta, overwrite=True)
     with store:
-        res = _run(problem, smp, store, scfg, callback, None)
+        try:
+            res = _run(problem, smp, store, scfg, callback, None)
+        except Exception as err:  # the run says it failed (KeyboardInterrupt: resumable)
+            _failed(out, err)
+            raise
     return _finish(out, problem, res)
+
+
+def _failed(run_dir: Path, err: BaseException) -> None:
+    """Mark a run that stopped on an error: result.json says ``failed`` and why."""
+    rec = {"failed": True, "converged": False, "reason": f"failed: {type(err).__name__}: {err}"}
+    (run_dir / "result.json").write_text(json.dumps(rec, indent=2))
 
 
 def _finish(run_dir: Path, problem: Problem, res: RunResult) -> FitOutput:

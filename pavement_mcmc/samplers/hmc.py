@@ -53,6 +53,9 @@ from .target import MarginalTarget, cholesky_of
 _DA_GAMMA, _DA_T0, _DA_KAPPA = 0.05, 10.0, 0.75
 _SCALARS = ("log_eps", "log_eps_bar", "hbar", "mu", "k_adapt", "k_da", "n_leapfrog", "frozen",
             "n_metric", "win_n")
+#: reflections in one drift after which the chain's proposal is rejected (a trajectory caught
+#: in a corner of the bounds, e.g. a parameter piling up at a bound in a refit)
+_MAX_REFLECTIONS = 1000
 _ARRAYS = ("idx", "hcols", "hpos", "L", "f", "g", "loglik", "win_1", "win_2")
 
 
@@ -181,15 +184,18 @@ class HMCSampler(Sampler):
 
     # -- dynamics ----------------------------------------------------------------------------
     def _drift(self, x: np.ndarray, p: np.ndarray, eps: np.ndarray):
-        """Move for time ``eps`` (per chain) along x-velocity ``L p``, reflecting at the bounds."""
+        """Move for time ``eps`` (per chain) along x-velocity ``L p``, reflecting at the bounds.
+
+        Returns ``(x, p, stuck)``: ``stuck`` marks chains still reflecting after
+        :data:`_MAX_REFLECTIONS` (their proposal is rejected by the caller, never raised)."""
         lo, hi = self.lo[self.idx], self.hi[self.idx]
         v = p @ self.L.T
         xn = x + eps[:, None] * v
         if np.all((xn >= lo) & (xn <= hi)):  # the common case: no bound reached
-            return xn, p
+            return xn, p, np.zeros(x.shape[0], bool)
         rows = np.arange(x.shape[0])
         t_left = eps.copy()
-        for _ in range(1000):
+        for _ in range(_MAX_REFLECTIONS):
             with np.errstate(divide="ignore", invalid="ignore"):
                 t_lo = np.where(v < 0, np.maximum((lo - x) / v, 0.0), np.inf)
                 t_hi = np.where(v > 0, np.maximum((hi - x) / v, 0.0), np.inf)
@@ -201,14 +207,14 @@ class HMCSampler(Sampler):
             x = x + dt[:, None] * v
             t_left = t_left - dt
             if not hit.any():
-                return np.clip(x, lo, hi), p
+                return np.clip(x, lo, hi), p, np.zeros(x.shape[0], bool)
             r, kk = rows[hit], k[hit]
             x[r, kk] = np.where(v[r, kk] < 0, lo[kk], hi[kk])
             n = self.L[kk]  # the plane x_k = bound has normal L[k] in u
             c = 2.0 * np.sum(p[r] * n, axis=1) / np.sum(n * n, axis=1)
             p[r] -= c[:, None] * n
             v[r] -= c[:, None] * (n @ self.L.T)
-        raise RuntimeError("HMC: more than 1000 reflections in one leapfrog step")
+        return np.clip(x, lo, hi), p, t_left > 0
 
     def _trajectory(self, eps: np.ndarray):
         """One leapfrog trajectory from the current state; returns the proposal and log alpha."""
@@ -217,13 +223,15 @@ class HMCSampler(Sampler):
         x = self.theta[:, self.idx].copy()
         e = eps[:, None]
         p = p0 + 0.5 * e * (self.g @ self.L)
+        stuck = np.zeros(m, bool)
         for j in range(self.n_leapfrog):
-            x, p = self._drift(x, p, eps)
+            x, p, st = self._drift(x, p, eps)
+            stuck |= st
             f, g, ll, bl = self._value_grad(self._full(x))
             p = p + (0.5 if j == self.n_leapfrog - 1 else 1.0) * e * (g @ self.L)
         with np.errstate(invalid="ignore", over="ignore"):
             log_a = (f - 0.5 * np.sum(p * p, axis=1)) - (self.f - 0.5 * np.sum(p0 * p0, axis=1))
-        log_a = np.where(np.isnan(log_a), -np.inf, log_a)
+        log_a = np.where(np.isnan(log_a) | stuck, -np.inf, log_a)
         return x, f, g, ll, bl, log_a
 
     def step(self, n_steps: int, adapt: bool = False) -> Block:

@@ -16,6 +16,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..parameters import Flat
+from ..posterior.map import psd_factor
 from ..posterior.marginal import MarginalGMRF, find_marginal_map, gmrf_of
 from .base import finite_draws
 from .gamma import draw_gamma
@@ -155,4 +156,7 @@ def cholesky_of(cov: np.ndarray) -> np.ndarray:
     sd = np.sqrt(np.diag(cov))
     corr = cov / np.outer(sd, sd)
     k = cov.shape[0]
-    return np.linalg.cholesky(corr + 1e-10 * np.eye(k)) * sd[:, None]
+    try:
+        return np.linalg.cholesky(corr + 1e-10 * np.eye(k)) * sd[:, None]
+    except np.linalg.LinAlgError:  # round-off made it indefinite: the PSD square root
+        return psd_factor(corr) * sd[:, None]

@@ -1,0 +1,278 @@
+r"""The scored candidates of a ranking and the rules that decide which one may be claimed.
+
+Score of candidate ``c`` against the base ``r`` (a BIC with autocorrelation-aware counts):
+
+.. math::
+    S_c = \frac{\chi^2_r - \chi^2_c}{\phi_c} + (P_r - P_c)
+          - (p^\mathrm{eff}_c - p^\mathrm{eff}_r)\,\log n^\mathrm{eff}_c,\qquad
+    \phi_c = \frac{1+\rho_c}{1-\rho_c},\quad n^\mathrm{eff}_c = n/\phi_c
+
+and its **data part**, the misfit drop alone, charged for added parameters but never credited
+for removed ones:
+
+.. math::
+    D_c = \frac{\chi^2_r - \chi^2_c}{\phi_c} - \max(p^\mathrm{eff}_c - p^\mathrm{eff}_r, 0)\,
+          \log n^\mathrm{eff}_c .
+
+A candidate is **claimable** only if :math:`D_c >` :data:`DATA_THRESHOLD` *on its own* and
+:math:`S_c >` :data:`THRESHOLD`: a drop of the effective parameter count (a candidate that lets
+the priors hold what the data held, e.g. ``radiation_factor`` or ``wind_convection`` replacing a
+free h(t)) or of the prior penalty can never carry a claim, and a candidate whose fit is worse
+never is one. ``DATA_THRESHOLD`` is calibrated on clean twins (``make validate``: the
+false-alarm rate on 24 clean twins must stay <= 1/20).
+
+One exception (the real-data issue): when the base fit is **physically impossible** (kappa or C
+outside every ground material, :func:`~pavement_mcmc.physics.materials.check_values`), a
+candidate that brings them back into range without a worse misfit
+(:math:`\chi^2_r - \chi^2_c \ge -` :data:`THRESHOLD`) is claimable even if its score comes
+through the priors: the impossible estimate is itself the evidence.
+
+A candidate with one of its own parameters fitted **at a bound** is never claimed: it is a sign
+that the missing effect is none of the catalogue's (see :mod:`.unexplained`). Nor is a
+per-sensor nuisance (:data:`PER_SENSOR`) whose offsets form one **coherent profile** over every
+sensor (all of one sign, none below a quarter of the largest or monotone in depth,
+:func:`coherent_profile`): independent calibration errors do
+not line up with depth; a physical effect acting with depth (a buried heat source, a surface
+flux the model lacks) does.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .fitting import Fit
+from .residuals import pooled_lag1
+
+#: total score above which a candidate may be claimed (2 ln Bayes factor, "very strong")
+THRESHOLD = 10.0
+#: the data part :math:`D_c` must pass this on its own (calibrated on clean twins, see module doc)
+DATA_THRESHOLD = 20.0
+#: a claimed candidate whose refit RMSE stays above this many sigma does not explain the misfit
+RMSE_NONE = 1.3
+#: ... nor one whose residuals keep a pooled lag-1 autocorrelation above this
+RHO_NONE = 0.5
+#: the misfit floor of a correct model, in sigma (grid, h(t) discretisation, input noise)
+FLOOR = 1.1
+#: a candidate that does not explain the misfit is still claimed ("partly") if it removes at
+#: least this share of the excess mean square misfit above the floor (a second effect may be
+#: missing too); below it the answer is "none of these"
+PARTIAL = 0.5
+
+
+#: per-sensor nuisances: claimable only if their offsets are not one coherent depth profile
+PER_SENSOR = ("sensor_bias", "sensor_depth")
+
+
+def excess_share(base_rmse_sigma: float, rmse_sigma: float) -> float:
+    """Share of the excess mean square misfit above :data:`FLOOR` removed (``<= 1``)."""
+    ex = base_rmse_sigma**2 - FLOOR**2
+    if ex <= 0:
+        return 1.0
+    return float(1.0 - max(rmse_sigma**2 - FLOOR**2, 0.0) / ex)
+
+
+def coherent_profile(values: dict[str, float], min_share: float = 0.25) -> bool:
+    """Per-sensor offsets (3 or more, in depth order) all of one sign that line up with depth:
+    none below ``min_share`` of the largest, or monotone in depth with the two largest within a
+    factor 2 (one offset sensor leaves the others near zero, with either sign)."""
+    v = np.array(list(values.values()), float)
+    if v.size < 3 or not np.any(v):
+        return False
+    if not (np.all(v > 0) or np.all(v < 0)):
+        return False
+    a = np.abs(v)
+    if a.min() >= min_share * a.max():
+        return True
+    d = np.diff(a)
+    top2 = np.sort(a)[-2:]
+    return bool((np.all(d <= 0) or np.all(d >= 0)) and top2[0] >= 0.5 * top2[1])
+
+
+def score(ref: Fit, cand: Fit) -> tuple[float, float, float]:
+    """``(S_c, D_c, rho_c)`` of ``cand`` against ``ref`` (module doc)."""
+    rho = pooled_lag1(cand.residuals)
+    phi = (1 + rho) / (1 - rho)
+    log_n = math.log(cand.residuals.size / phi)
+    dp = cand.p_eff - ref.p_eff
+    data = (ref.chi2 - cand.chi2) / phi
+    s = data + (ref.prior_penalty - cand.prior_penalty) - dp * log_n
+    return float(s), float(data - max(dp, 0.0) * log_n), float(rho)
+
+
+def at_bounds(fit: Fit, names: list[str], null: dict[str, float] | None = None,
+              rel: float = 1e-3) -> list[str]:
+    """The parameters of ``names`` that ``fit`` left within ``rel`` of the span at a finite bound
+    (not counting one that sits at its ``null`` value there: the effect is simply absent)."""
+    space = fit.problem.space
+    vals = fit.values()
+    out = []
+    for n in names:
+        p = space[n]
+        lo, hi = float(p.lower), float(p.upper)
+        span = hi - lo if np.isfinite(hi - lo) else max(abs(vals[n]), 1.0)
+        if null and n in null and abs(vals[n] - null[n]) <= rel * span:
+            continue
+        if (np.isfinite(lo) and vals[n] - lo <= rel * span) or (
+            np.isfinite(hi) and hi - vals[n] <= rel * span
+        ):
+            out.append(n)
+    return out
+
+
+@dataclass
+class Entry:
+    """One ranked candidate.
+
+    Attributes
+    ----------
+    name : extension name or ``"finer_h"``.
+    description : what the candidate adds, in words.
+    reference : the model it was compared with (``"base"``).
+    score : penalised evidence :math:`S_c` (module doc).
+    data_score : the data part :math:`D_c` (module doc).
+    delta_chi2 : raw misfit drop :math:`\\chi^2_r - \\chi^2_c`.
+    delta_prior : prior-penalty drop :math:`P_r - P_c`.
+    added_params : :math:`p^{eff}_c - p^{eff}_r`.
+    rho : pooled lag-1 autocorrelation of the candidate's residuals.
+    rmse : overall RMSE of the candidate fit, degC; ``rmse_sigma`` in sigma.
+    rmse_sensors : per-sensor RMSE, degC.
+    evidence : plain-words residual patterns that support the candidate, plus its hint.
+    values : the candidate's own fitted parameters.
+    at_bound : its own parameters fitted at a bound (never claimed then).
+    profile : a per-sensor nuisance whose offsets form one coherent depth profile (never
+        claimed then).
+    hook : where the candidate acts: ``"surface"`` (the surface energy balance or h),
+        ``"material"``, ``"observe"`` or ``"h"`` (finer_h).
+    restores_plausibility : the base fit is physically impossible and this one is not.
+    excess_share : share of the base fit's excess mean square misfit above :data:`FLOOR` that
+        this candidate removes (1: all of it).
+    loso_lpd : leave-one-sensor-out log predictive density per datum (look-alikes only).
+    threshold, data_threshold : the claim thresholds.
+    fit : the refit (not serialised).
+    """
+
+    name: str
+    description: str
+    reference: str
+    score: float
+    data_score: float
+    delta_chi2: float
+    delta_prior: float
+    added_params: float
+    rho: float
+    rmse: float
+    rmse_sigma: float
+    rmse_sensors: list[float]
+    evidence: list[str]
+    values: dict[str, float]
+    at_bound: list[str] = field(default_factory=list)
+    profile: bool = False
+    hook: str = ""
+    restores_plausibility: bool = False
+    excess_share: float = 0.0
+    loso_lpd: float | None = None
+    threshold: float = THRESHOLD
+    data_threshold: float = DATA_THRESHOLD
+    fit: Fit | None = field(default=None, repr=False)
+
+    @property
+    def prior_driven(self) -> bool:
+        """Above the threshold but not through the data: the data part alone does not pass
+        :attr:`data_threshold` (priors or a parameter-count drop carry it). Not a detection."""
+        return self.score > self.threshold and self.data_score <= self.data_threshold
+
+    @property
+    def plausibility_claim(self) -> bool:
+        """Claimable because it brings an impossible base fit back into range without a worse
+        misfit (module doc)."""
+        return (self.restores_plausibility and self.delta_chi2 >= -self.threshold
+                and not self.at_bound and not self.profile)
+
+    @property
+    def detected(self) -> bool:
+        """Claimable: the data part and the score pass their thresholds, no own parameter at a
+        bound, no coherent per-sensor profile; or :attr:`plausibility_claim`."""
+        if self.plausibility_claim:
+            return True
+        return (self.score > self.threshold and self.data_score > self.data_threshold
+                and not self.at_bound and not self.profile)
+
+    @property
+    def explains(self) -> bool:
+        """The refit leaves noise-like residuals: RMSE <= :data:`RMSE_NONE` sigma and pooled
+        lag-1 <= :data:`RHO_NONE`."""
+        return self.rmse_sigma <= RMSE_NONE and self.rho <= RHO_NONE
+
+    @property
+    def partial(self) -> bool:
+        """It does not explain the misfit but removes at least :data:`PARTIAL` of its excess."""
+        return not self.explains and self.excess_share >= PARTIAL
+
+    def to_dict(self) -> dict:
+        d = {k: v for k, v in self.__dict__.items() if k != "fit"}
+        d.update(detected=self.detected, prior_driven=self.prior_driven, explains=self.explains,
+                 plausibility_claim=self.plausibility_claim)
+        return d
+
+
+@dataclass
+class Ranking:
+    """The ranked candidates and the verdict.
+
+    Attributes
+    ----------
+    entries : candidates, best first.
+    base : the MAP refit of the run's model.
+    residuals : residual report of the base point estimate.
+    verdict : one paragraph in plain words.
+    best : the claimed missing effect (first entry) or None.
+    lookalikes : names of candidates indistinguishable from the best by the score.
+    skipped : candidate -> why it could not be tried.
+    unexplained : the "none of these" analysis (:class:`~.unexplained.Unexplained`) when no
+        catalogue entry explains the misfit, else None.
+    findings : plausibility findings of the base fit (:class:`~pavement_mcmc.physics.materials.Finding`).
+    points_at : where the evidence points when no entry is claimed: ``{"where": "surface energy
+        balance", "candidates": [...]}`` when the energy balance (:mod:`.energy`) says the
+        surface boundary is wrong and the surface candidates score highest; else None.
+    """
+
+    entries: list[Entry]
+    base: Fit
+    residuals: object
+    verdict: str
+    best: Entry | None
+    lookalikes: list[str]
+    skipped: dict[str, str]
+    threshold: float = THRESHOLD
+    unexplained: object | None = None
+    findings: list = field(default_factory=list)
+    points_at: dict | None = None
+
+    @property
+    def none_of_these(self) -> bool:
+        """No catalogue entry explains the misfit."""
+        return self.unexplained is not None
+
+    def to_dict(self) -> dict:
+        return {
+            "verdict": self.verdict,
+            "missing_effect": None if self.best is None else self.best.name,
+            "none_of_these": self.none_of_these,
+            "unexplained": None if self.unexplained is None else self.unexplained.to_dict(),
+            "findings": [f.text() for f in self.findings],
+            "points_at": self.points_at,
+            "lookalikes": self.lookalikes,
+            "base": {
+                "chi2": self.base.chi2,
+                "rmse": self.base.rmse,
+                "p_eff": self.base.p_eff,
+                "prior_penalty": self.base.prior_penalty,
+            },
+            "threshold": self.threshold,
+            "data_threshold": DATA_THRESHOLD,
+            "candidates": [e.to_dict() for e in self.entries],
+            "skipped": self.skipped,
+        }
