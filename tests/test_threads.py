@@ -2,8 +2,8 @@
 
 The same small fit (Case C, 115 unknowns, 10 HMC steps: on 54378b5 the MAP and the first steps
 already differ with 2 BLAS threads, and run 8x slower) runs in two fresh interpreters, one with
-every BLAS thread variable unset and one with them set to 1: the chains must be bit-identical, and inside the fit the BLAS pools
-must hold one thread whatever the environment said.
+every BLAS thread variable unset and one with them set to 1: the chains must be bit-identical,
+and inside the fit the BLAS pools must hold one thread whatever the environment said.
 """
 
 from __future__ import annotations
