@@ -285,13 +285,14 @@ def run_sampler(
                 converged = True
                 reason = (f"ESS >= {ess_target:g} for every parameter, kept chain"
                           f" >= {min_tau_lengths:g} tau, R-hat < {rhat_max}, no drift")
-                break
         if callback is not None:
             callback({"n_steps": n_steps, "n_evals": n_evals, "n_adapt": n_adapt,
                       "max_steps": max_steps, "ess_target": ess_target,
                       "acceptance": float(b.accepted.mean()), "adapting": adapt,
                       "min_ess": None if check is None else float(np.min(check.ess)),
                       "elapsed": time.perf_counter() - t0})
+        if converged:
+            break
     if not converged and n_steps >= n_adapt and rows.n:
         # stopped by a budget: one full check of everything sampled, for the report
         check = check_convergence(rows, *rows.small(), n_adapt_rows, burn_rows, ess_target,
