@@ -1,5 +1,6 @@
 """Batch fits on Dask (issue 13): worker-count independence, a worker killed mid-unit, a batch
-killed and run again. Three 6 h windows of the reference case, two h pieces each, a small ESS target (about 1 s a unit)."""
+killed and run again. Three 6 h windows of the reference case, two h pieces each, a small ESS
+target (about 1 s a unit)."""
 
 from __future__ import annotations
 
@@ -119,7 +120,7 @@ def test_a_killed_batch_run_again_skips_finished_units(reference, tmp_path):
     proc.wait()
     finished = {p.parent.name: p.stat().st_mtime_ns for p in out.glob("*/unit.json")}
     assert finished and not (out / TABLE).exists()
-    rows = run_batch(_units(), out, seed=5, n_workers=2, counter=counter)
+    run_batch(_units(), out, seed=5, n_workers=2, counter=counter)
     counts = _counts(counter)
     for key, mtime in finished.items():
         assert len(counts[key]) == 1 and (out / key / "unit.json").stat().st_mtime_ns == mtime
@@ -140,8 +141,16 @@ def test_map_units_keeps_order_and_records_failures():
     assert sorted(seen) == [0, 1, 2]
 
 
-def test_a_bad_window_fails_alone(tmp_path):
-    units = window_units(REPO / "runs" / "caseA.toml", windows=[(0, 6), (20, 60)], overrides=SMALL)
-    rows = run_batch(units, tmp_path, seed=5, n_workers=1)
+def test_cli_batch_lists_a_bad_window_and_runs_the_others(tmp_path, capsys):
+    from pavement_mcmc.cli import main
+
+    out = tmp_path / "b"
+    code = main(["batch", str(REPO / "runs" / "caseA.toml"), "--windows", "0-6", "20-60", "--out",
+                 str(out), "--workers", "1", "--no-progress", "--seed", "5",
+                 "--set", "model.h.kind=uniform", "model.h.n=2", "sampler.ess_target=100",
+                 "sampler.max_steps=2000", "sampler.n_walkers=8"])
+    text = capsys.readouterr().out
+    assert code == 1 and "FAILED caseA@20-60h" in text, text
+    rows = read_table(out / TABLE)
     assert rows[0]["status"] in ("ok", "not converged") and rows[1]["status"] == "failed"
-    assert "window" in rows[1]["reason"] or "Error" in rows[1]["reason"], rows[1]["reason"]
+    assert (out / "batch.png").stat().st_size > 10_000 and (out / "caseA@0-6h" / "chain.h5").is_file()

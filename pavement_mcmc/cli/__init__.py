@@ -21,6 +21,7 @@ COMMANDS = {
     "urban": "urban",
     "diagnose": "diagnose",
     "compare": "compare",
+    "batch": "batch",
 }
 
 _DESCRIPTION = """\
