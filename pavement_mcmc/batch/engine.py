@@ -20,6 +20,11 @@ from dataclasses import dataclass
 
 #: the standard Dask environment variable naming an existing scheduler
 SCHEDULER_ENV = "DASK_SCHEDULER_ADDRESS"
+#: the environment of the local cluster's workers: one core each, so the compiled solver and
+#: BLAS use one thread (numba's default of one thread per core, times one worker per core,
+#: oversubscribes the machine: measured 5-10x slower per unit on 2 cores)
+WORKER_ENV = {"NUMBA_NUM_THREADS": "1", "OMP_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1",
+              "MKL_NUM_THREADS": "1"}
 
 
 @dataclass(frozen=True)
@@ -41,8 +46,9 @@ def default_workers() -> int:
 @contextmanager
 def connect(scheduler: str | None = None, n_workers: int | None = None) -> Iterator:
     """A ``distributed.Client``: to ``scheduler`` (or ``$DASK_SCHEDULER_ADDRESS``) if given,
-    else to a new embedded ``LocalCluster`` of ``n_workers`` single-threaded worker processes,
-    closed on exit."""
+    else to a new embedded ``LocalCluster`` of ``n_workers`` single-threaded worker processes
+    (environment :data:`WORKER_ENV`), closed on exit. Workers of an existing cluster should be
+    started the same way: ``NUMBA_NUM_THREADS=1 dask worker ADDRESS --nthreads 1``."""
     from distributed import Client, LocalCluster
 
     address = scheduler or os.environ.get(SCHEDULER_ENV)
@@ -52,7 +58,7 @@ def connect(scheduler: str | None = None, n_workers: int | None = None) -> Itera
         return
     n = int(n_workers or default_workers())
     with LocalCluster(n_workers=n, threads_per_worker=1, processes=True, dashboard_address=None,
-                      silence_logs=50) as cluster, Client(cluster) as client:
+                      silence_logs=50, env=WORKER_ENV) as cluster, Client(cluster) as client:
         yield client
 
 
