@@ -12,6 +12,7 @@ import threading
 import time
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from pavement_mcmc.batch import (
@@ -154,3 +155,13 @@ def test_cli_batch_lists_a_bad_window_and_runs_the_others(tmp_path, capsys):
     rows = read_table(out / TABLE)
     assert rows[0]["status"] in ("ok", "not converged") and rows[1]["status"] == "failed"
     assert (out / "batch.png").stat().st_size > 10_000 and (out / "caseA@0-6h" / "chain.h5").is_file()
+
+
+def test_drift_measures_trend_and_scatter_in_units_of_the_intervals():
+    from pavement_mcmc.batch import drift
+
+    rows = [{"status": "ok", "start_h": 24.0 * i, "end_h": 24.0 * i + 24, "x": 1.0 + 0.1 * i,
+             "x_lo": 0.9 + 0.1 * i, "x_hi": 1.1 + 0.1 * i} for i in range(5)]
+    d = drift(rows, "x")
+    assert d.n == 5 and d.slope == pytest.approx(0.1) and d.half_width == pytest.approx(0.1)
+    assert d.chi2_dof == pytest.approx(np.sum(((np.arange(5) - 2) * 0.1 / (0.2 / 3.92)) ** 2) / 4)
