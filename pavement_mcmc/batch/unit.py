@@ -4,7 +4,8 @@
 (so ``report``, ``diagnose``, ``resume`` ... work on it), and reduces it to one table row
 (:func:`unit_row`). It is idempotent, which is what makes a batch lose nothing:
 
-* ``unit.json`` present: the unit finished earlier; its row is returned, nothing recomputed;
+* ``unit.json`` present: the unit finished earlier; its row is returned, nothing recomputed
+  (unless ``result.json`` is newer: the run was continued with ``resume``; the row is re-read);
 * ``chain.h5`` with a saved block but no ``unit.json``: the unit was killed; it is continued
   with :func:`~pavement_mcmc.runs.resume`, bit for bit;
 * otherwise it is fitted from scratch with the seed :func:`~.units.unit_seed` gives its key.
@@ -54,8 +55,10 @@ def run_unit(unit: Unit, out: str | Path, batch_seed: int = 0, *, max_seconds: f
     """
     run_dir = Path(out) / _folder(unit.key)
     done = run_dir / "unit.json"
-    if done.exists():
+    result = run_dir / "result.json"
+    if done.exists() and not (result.exists() and result.stat().st_mtime > done.stat().st_mtime):
         return json.loads(done.read_text())
+    # else: not finished, or continued since with `pavement-mcmc resume` (the row is re-read)
     row = {"key": unit.key, "site": unit.site, "start_time": unit.start_time,
            "start_h": unit.window_hours[0] if unit.window_hours else float("nan"),
            "end_h": unit.window_hours[1] if unit.window_hours else float("nan"),
