@@ -27,6 +27,7 @@ LAYERS = (
     "storage",  # chains on disk, resumable
     "diagnostics",  # pure functions on chains
     "runs",  # fit / resume / read back a run folder
+    "batch",  # many fits on Dask: windows of a record, many sites
     "analysis",  # sensitivity, urban comparison
     "criticism",  # where the model fails, what is missing (numbers only)
     "plotting",  # figures (the only matplotlib user)

@@ -12,10 +12,13 @@ matrix (see the ranking's module documentation).
 from __future__ import annotations
 
 import json
+import sys
 
+import cloudpickle
 import pytest
 
 from pavement_mcmc import synthetic
+from pavement_mcmc.batch import Failure, map_units
 from pavement_mcmc.criticism import campaign, diagnose, refit
 from pavement_mcmc.data import load_case
 from pavement_mcmc.posterior import build_problem
@@ -37,6 +40,9 @@ prior = {{ dist = "truncnormal", mean = {C}, sd = 0.05e6 }}
 # radiation_factor is left out: its scale symmetry with kappa, C and h hides it unless the kappa
 # and C priors are tight and correct (see the ranking module's docstring)
 EFFECTS = [e for e in synthetic.EFFECTS if e != "radiation_factor"]
+SEEDS, STRENGTHS = [2, 3, 4], [1.0, 0.7, 1.5]
+# the matrix's cells run on Dask workers, which cannot import this test module
+cloudpickle.register_pickle_by_value(sys.modules[__name__])
 
 
 def scaled(effect: str, strength: float) -> dict:
@@ -97,11 +103,29 @@ def test_detects_hidden_effect_fast(tmp_path, effect):
         assert res["rmse_refit"] <= 1.10 * res["rmse_true"], res
 
 
+def _cell(unit) -> dict:
+    (effect, seed, strength), root = unit
+    from pathlib import Path
+
+    return check(Path(root), effect, seed, strength)
+
+
+@pytest.fixture(scope="module")
+def matrix(tmp_path_factory) -> dict:
+    """Every cell of the detection matrix, fitted through the batch engine
+    (:func:`pavement_mcmc.batch.map_units`, a local Dask cluster, one worker per core)."""
+    root = str(tmp_path_factory.mktemp("matrix"))
+    cells = [(e, s, k) for k in STRENGTHS for e in [None, *EFFECTS] for s in SEEDS
+             if e is not None or k == 1.0]
+    out = map_units(_cell, [(c, root) for c in cells], key=lambda u: "-".join(map(str, u[0])))
+    return dict(zip(cells, out))
+
+
 @pytest.mark.slow
-@pytest.mark.parametrize("seed", [2, 3, 4])
+@pytest.mark.parametrize("seed", SEEDS)
 @pytest.mark.parametrize("effect", [None, *EFFECTS])
-@pytest.mark.parametrize("strength", [1.0, 0.7, 1.5])
-def test_detection_matrix(tmp_path, request, effect, seed, strength):
+@pytest.mark.parametrize("strength", STRENGTHS)
+def test_detection_matrix(matrix, request, effect, seed, strength):
     if effect is None and strength != 1.0:
         pytest.skip("strength does not apply without an effect")
     if effect == "conductivity_temperature" and strength <= 1.0:
@@ -112,7 +136,8 @@ def test_detection_matrix(tmp_path, request, effect, seed, strength):
                 strict=False,
             )
         )
-    res = check(tmp_path, effect, seed, strength)
+    res = matrix[(effect, seed, strength)]
+    assert not isinstance(res, Failure), res
     print("MATRIX", json.dumps({k: v for k, v in res.items() if k != "verdict"}))
     assert res["found"] == effect, res["verdict"]
     if effect is not None:

@@ -1,18 +1,24 @@
 """Slow validation runs (``make validate``): SBC, coverage on the reference case, fast vs MH.
 
-Numbers are printed (run with ``-s``) for the record.
+Numbers are printed (run with ``-s``) for the record. The many-fit campaigns (SBC's 100 twins,
+the 8 Case C twins) run through the batch engine, :func:`pavement_mcmc.batch.map_units`, on a
+local Dask cluster (one worker per core); each fit's seed is fixed by its index, so the numbers do
+not depend on the number of workers.
 """
 
 from __future__ import annotations
 
+import sys
 import warnings
 from pathlib import Path
 
+import cloudpickle
 import numpy as np
 import pytest
 from scipy import stats
 
 from pavement_mcmc import diagnostics as dg
+from pavement_mcmc.batch import Failure, map_units
 from pavement_mcmc.data import load_case
 from pavement_mcmc.parameters import ParameterSpace, TruncatedNormal
 from pavement_mcmc.physics import HBasis, Model
@@ -24,6 +30,16 @@ from pavement_mcmc.storage import MemoryStore
 
 ROOT = Path(__file__).resolve().parents[1]
 pytestmark = pytest.mark.slow
+# the campaign units below are functions of this test module, which the Dask workers cannot import
+cloudpickle.register_pickle_by_value(sys.modules[__name__])
+
+
+def _campaign(fn, units, **kw) -> list:
+    """``fn`` over ``units`` on the batch engine; a unit that failed fails the test, naming it."""
+    out = map_units(fn, units, key=lambda u: u[0], **kw)
+    bad = [r for r in out if isinstance(r, Failure)]
+    assert not bad, bad
+    return out
 
 #: the SBC's generative prior = its inference prior (wider than the paper's, see test_sbc)
 SBC_PRIOR = {"kappa": TruncatedNormal(1.5, 0.3), "C": TruncatedNormal(1.5e6, 0.3e6),
@@ -74,33 +90,13 @@ def test_sbc_case_a_twins(inputs):
     """
     if inputs == "noisy":
         pytest.xfail("noisy boundary/initial data used as exact: the paper's method is over-confident")
-    from pavement_mcmc.posterior import attach_input_noise
-    from pavement_mcmc.synthetic import SyntheticSpec, simulate, to_measurements
 
-    warnings.simplefilter("ignore")
     rng = np.random.default_rng(2024)
-    n_sets, L = 100, 99
-    ranks = {n: [] for n in SBC_PRIOR}
-    for i in range(n_sets):
-        true = {n: float(p.sample(rng, 1)[0]) for n, p in SBC_PRIOR.items()}
-        spec = SyntheticSpec(kappa=true["kappa"], C=true["C"], sigma=0.25, hours=12,
-                             h_knots=(true["h_1"], true["h_1"]), seed=1000 + i, emission=False,
-                             forcing="linear", forcing_noise=False, spinup_hours=24)
-        cols, truth = simulate(spec)
-        if inputs == "clean":  # noise-free bottom boundary and initial profile (see docstring)
-            labels = [k for k in cols if k.startswith("T_") and k.endswith("cm")]
-            for j, lab in enumerate(labels):
-                cols[lab] = np.array(cols[lab], float)
-                cols[lab][0] = truth.T_clean[0, j]
-            cols[labels[-1]] = np.array(truth.T_clean[:, len(labels) - 1], float)
-        post = _sbc_posterior(to_measurements(cols, sigma=0.25))
-        if inputs == "noisy_integrated":
-            attach_input_noise(post, 0.25)
-        res, data = _run(post, n_chains=32, seed=i, ess_target=1000, max_steps=6000)
-        kept = data.chain[res.burn_in:].reshape(-1, post.ndim)
-        draws = kept[np.linspace(0, kept.shape[0] - 1, L).astype(int)]
-        for j, n in enumerate(post.space.free):
-            ranks[n].append(int(np.sum(draws[:, j] < true[n])))
+    n_sets = 100
+    truths = [{n: float(p.sample(rng, 1)[0]) for n, p in SBC_PRIOR.items()} for _ in range(n_sets)]
+    results = _campaign(_sbc_unit, [(i, truths[i]) for i in range(n_sets)], inputs=inputs)
+    ranks = {n: [r[n] for r in results] for n in SBC_PRIOR}
+    L = 99
     bad = {}
     for n, r in ranks.items():
         counts = np.bincount(np.asarray(r) * 10 // (L + 1), minlength=10)
@@ -114,6 +110,32 @@ def test_sbc_case_a_twins(inputs):
         pytest.xfail(f"C biased high by the boundary noise's attenuation (errors in variables), "
                      f"not removed by integrating the noise out: {bad['C']}")
     assert not bad, bad
+
+
+def _sbc_unit(unit, inputs: str, L: int = 99) -> dict:
+    """One SBC twin: the rank of the truth among ``L`` thinned posterior draws, per parameter."""
+    from pavement_mcmc.posterior import attach_input_noise
+    from pavement_mcmc.synthetic import SyntheticSpec, simulate, to_measurements
+
+    warnings.simplefilter("ignore")
+    i, true = unit
+    spec = SyntheticSpec(kappa=true["kappa"], C=true["C"], sigma=0.25, hours=12,
+                         h_knots=(true["h_1"], true["h_1"]), seed=1000 + i, emission=False,
+                         forcing="linear", forcing_noise=False, spinup_hours=24)
+    cols, truth = simulate(spec)
+    if inputs == "clean":  # noise-free bottom boundary and initial profile (see the test)
+        labels = [k for k in cols if k.startswith("T_") and k.endswith("cm")]
+        for j, lab in enumerate(labels):
+            cols[lab] = np.array(cols[lab], float)
+            cols[lab][0] = truth.T_clean[0, j]
+        cols[labels[-1]] = np.array(truth.T_clean[:, len(labels) - 1], float)
+    post = _sbc_posterior(to_measurements(cols, sigma=0.25))
+    if inputs == "noisy_integrated":
+        attach_input_noise(post, 0.25)
+    res, data = _run(post, n_chains=32, seed=i, ess_target=1000, max_steps=6000)
+    kept = data.chain[res.burn_in:].reshape(-1, post.ndim)
+    draws = kept[np.linspace(0, kept.shape[0] - 1, L).astype(int)]
+    return {n: int(np.sum(draws[:, j] < true[n])) for j, n in enumerate(post.space.free)}
 
 
 def _case(name, overrides=None):
@@ -184,26 +206,31 @@ def case_c_twins(tmp_path_factory):
     smooth h(t) through the paper's values, emission, instrument noise on every input; seeds
     1-8), kappa/C priors widened, the inputs' noise integrated out. The reference case is one
     noise draw: a miss there may be luck, so coverage is also measured over these."""
-    from pavement_mcmc.synthetic import SyntheticSpec, write_case
 
     root = tmp_path_factory.mktemp("case_c_twins")
-    out = []
-    for seed in range(1, 9):
-        csv = write_case(SyntheticSpec(seed=seed, sigma=0.25), root / f"twin{seed}")
-        data = {"csv": str(csv), "truth": str(csv.parent / "truth.json"), **NOISY_INPUTS}
-        pr = _case("caseC", {**WIDE, "data": data})
-        res, chain = _run(pr.posterior, "hmc", seed=seed, ess_target=400, max_steps=100_000,
-                          max_seconds=300, min_tau_lengths=20, rhat_max=1.02)
-        kept = chain.chain[res.burn_in:].reshape(-1, pr.posterior.ndim)
-        lo, hi = np.percentile(kept, [2.5, 97.5], axis=0)
-        truth = truth_values(pr)
-        inside = {n: bool(lo[j] <= truth[n] <= hi[j]) for j, n in enumerate(pr.space.free)
-                  if n in truth}
-        h_cov = float(np.mean([v for n, v in inside.items() if n.startswith("h_")]))
-        print(f"twin {seed}: kappa {inside['kappa']} C {inside['C']} h {h_cov:.2f}"
-              f" converged={res.converged} ({res.elapsed:.0f} s)")
-        out.append({"kappa": inside["kappa"], "C": inside["C"], "h": h_cov, "ok": res.converged})
+    out = _campaign(_case_c_twin, [(seed, str(root)) for seed in range(1, 9)])
+    for seed, t in zip(range(1, 9), out):
+        print(f"twin {seed}: kappa {t['kappa']} C {t['C']} h {t['h']:.2f} converged={t['ok']} "
+              f"({t['elapsed']:.0f} s)")
     return out
+
+
+def _case_c_twin(unit) -> dict:
+    from pavement_mcmc.synthetic import SyntheticSpec, write_case
+
+    seed, root = unit
+    csv = write_case(SyntheticSpec(seed=seed, sigma=0.25), Path(root) / f"twin{seed}")
+    data = {"csv": str(csv), "truth": str(csv.parent / "truth.json"), **NOISY_INPUTS}
+    pr = _case("caseC", {**WIDE, "data": data})
+    res, chain = _run(pr.posterior, "hmc", seed=seed, ess_target=400, max_steps=100_000,
+                      max_seconds=300, min_tau_lengths=20, rhat_max=1.02)
+    kept = chain.chain[res.burn_in:].reshape(-1, pr.posterior.ndim)
+    lo, hi = np.percentile(kept, [2.5, 97.5], axis=0)
+    truth = truth_values(pr)
+    inside = {n: bool(lo[j] <= truth[n] <= hi[j]) for j, n in enumerate(pr.space.free) if n in truth}
+    h_cov = float(np.mean([v for n, v in inside.items() if n.startswith("h_")]))
+    return {"kappa": inside["kappa"], "C": inside["C"], "h": h_cov, "ok": res.converged,
+            "elapsed": res.elapsed}
 
 
 def test_case_c_twins_cover_kappa_and_c(case_c_twins):

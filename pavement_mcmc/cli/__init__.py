@@ -26,6 +26,7 @@ COMMANDS = {
     "urban": "urban",
     "diagnose": "diagnose",
     "compare": "compare",
+    "batch": "batch",
 }
 
 _DESCRIPTION = """\

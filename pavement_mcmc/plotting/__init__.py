@@ -8,6 +8,7 @@ Functions take arrays (or small result objects such as
 """
 
 from ._base import default_selection, display
+from .batch import plot_batch
 from .chains import (
     plot_acceptance,
     plot_autocovariance,
@@ -25,6 +26,7 @@ __all__ = [
     "display",
     "plot_acceptance",
     "plot_autocovariance",
+    "plot_batch",
     "plot_chains",
     "plot_corner",
     "plot_fit",

@@ -1,0 +1,112 @@
+"""The batch engine: independent units mapped over a Dask distributed cluster.
+
+:func:`map_units` is the one place units are scheduled, for ``pavement-mcmc batch`` and for
+the validation campaigns alike. Everything a scheduler does is Dask's: an embedded
+``LocalCluster`` by default (one worker process per core, one thread each, no set-up), or an
+existing cluster by address (``scheduler=`` or the standard ``DASK_SCHEDULER_ADDRESS``
+variable). A worker process that dies mid-unit is noticed by the Dask scheduler, which runs
+the unit again elsewhere (up to ``distributed.scheduler.allowed-failures`` times); a unit that
+raises is retried ``retries`` times (``Client.submit(retries=...)``). A unit that still fails
+is returned as a :class:`Failure` with its reason; it never stops the others.
+"""
+
+from __future__ import annotations
+
+import functools
+import os
+from collections.abc import Callable, Iterable, Iterator
+from contextlib import contextmanager
+from dataclasses import dataclass
+
+#: the standard Dask environment variable naming an existing scheduler
+SCHEDULER_ENV = "DASK_SCHEDULER_ADDRESS"
+#: the environment of the local cluster's workers: one core each, so the compiled solver and
+#: BLAS use one thread (numba's default of one thread per core, times one worker per core,
+#: oversubscribes the machine: measured 5-10x slower per unit on 2 cores)
+WORKER_ENV = {"NUMBA_NUM_THREADS": "1", "OMP_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1",
+              "MKL_NUM_THREADS": "1"}
+
+
+@dataclass(frozen=True)
+class Failure:
+    """A unit that did not produce a result: its key and the reason (the exception's text)."""
+
+    key: str
+    reason: str
+
+
+def default_workers() -> int:
+    """One worker per core this process may use."""
+    try:
+        return max(1, len(os.sched_getaffinity(0)))
+    except AttributeError:  # pragma: no cover - not Linux
+        return max(1, os.cpu_count() or 1)
+
+
+@contextmanager
+def connect(scheduler: str | None = None, n_workers: int | None = None) -> Iterator:
+    """A ``distributed.Client``: to ``scheduler`` (or ``$DASK_SCHEDULER_ADDRESS``) if given,
+    else to a new embedded ``LocalCluster`` of ``n_workers`` single-threaded worker processes
+    (environment :data:`WORKER_ENV`), closed on exit. Workers of an existing cluster should be
+    started the same way: ``NUMBA_NUM_THREADS=1 dask worker ADDRESS --nthreads 1``."""
+    from distributed import Client, LocalCluster
+
+    address = scheduler or os.environ.get(SCHEDULER_ENV)
+    if address:
+        with Client(address) as client:
+            yield client
+        return
+    n = int(n_workers or default_workers())
+    with LocalCluster(n_workers=n, threads_per_worker=1, processes=True, dashboard_address=None,
+                      silence_logs=50, env=WORKER_ENV) as cluster, Client(cluster) as client:
+        yield client
+
+
+def map_units(fn: Callable, units: Iterable, *, key: Callable = str, client=None,
+              scheduler: str | None = None, n_workers: int | None = None, retries: int = 1,
+              on_done: Callable | None = None, **kwargs) -> list:
+    """Run ``fn(unit, **kwargs)`` for every unit on a Dask cluster; results in the units' order.
+
+    Parameters
+    ----------
+    fn : a picklable function of one unit (and ``kwargs``); it runs on a worker.
+    units : the units (picklable).
+    key : unit -> a unique name (Dask's task key, the :class:`Failure`'s key).
+    client : an open ``distributed.Client`` to use; else one is opened with :func:`connect`
+        (``scheduler``, ``n_workers``) and closed afterwards.
+    retries : Dask retries of a unit that raised (a dead worker is retried by the scheduler).
+    on_done : called in this process as ``on_done(index, outcome)`` whenever a unit ends
+        (a progress bar).
+
+    Returns
+    -------
+    list : ``fn``'s return value for each unit, or a :class:`Failure` for a unit that failed.
+    """
+    units = list(units)
+    if client is None:
+        with connect(scheduler, n_workers) as own:
+            return map_units(fn, units, key=key, client=own, retries=retries, on_done=on_done,
+                             **kwargs)
+    from distributed import as_completed
+
+    keys = [str(key(u)) for u in units]
+    if len(set(keys)) != len(keys):
+        raise ValueError("map_units: two units share a key")
+    token = os.urandom(4).hex()  # a fresh task name per call: never a cached result of another
+    call = functools.partial(fn, **kwargs) if kwargs else fn
+    name = getattr(fn, "__name__", "unit")
+    futures = [client.submit(call, u, key=f"{name}-{k}-{token}", retries=retries, pure=False)
+               for u, k in zip(units, keys)]
+    index = {f.key: i for i, f in enumerate(futures)}
+    out: list = [None] * len(units)
+    for fut in as_completed(futures):
+        i = index[fut.key]
+        if fut.status == "finished":
+            out[i] = fut.result()
+        else:
+            err = fut.exception()
+            out[i] = Failure(keys[i], f"{type(err).__name__}: {err}")
+        fut.release()
+        if on_done is not None:
+            on_done(i, out[i])
+    return out
