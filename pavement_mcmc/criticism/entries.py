@@ -24,7 +24,7 @@ the largest data part of any catalogue candidate is 9.3 where h(t) is hourly or 
 with Case A's three h pieces catalogue candidates reach 330, but a finer h(t) reaches 180-1500
 there and is claimed instead (the coarse h is itself the misspecification). 20 is twice the
 clean maximum; the true effect's data part on the catalogue twins is 40-1260 (measured 0/24
-false alarms, true effect first on 15 of 20 catalogue twins).
+false alarms, true effect first on 13 of 20 catalogue twins).
 
 One exception (the real-data issue): when the base fit is **physically impossible** (kappa or C
 outside every ground material, :func:`~pavement_mcmc.physics.materials.check_values`), a
