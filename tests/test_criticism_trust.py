@@ -18,7 +18,7 @@ import pytest
 from pavement_mcmc.cli import main
 from pavement_mcmc.criticism import rank_missing_effects, refit
 from pavement_mcmc.criticism.entries import Entry, coherent_profile, excess_share
-from pavement_mcmc.criticism.guards import check_run, map_vs_sampled, rmse_vs_map
+from pavement_mcmc.criticism.guards import bound_findings, check_run, map_vs_sampled, rmse_vs_map
 from pavement_mcmc.criticism.verdict import rmse_change
 from pavement_mcmc.data import load_case
 from pavement_mcmc.posterior import build_problem
@@ -123,6 +123,11 @@ def test_guards_refuse_unfinished_and_failed_runs_and_flag_unconverged(tiny_run,
     assert map_vs_sampled({"kappa": 1.0}, {"kappa": 0.1}, {"kappa": 1.05}) is None
     assert "not at the mode" in rmse_vs_map("run+evaporation", 0.865, 0.302).text
     assert rmse_vs_map("run", 0.305, 0.302) is None
+    # the base fit stuck at C = 1e4 J m-3 K-1 (its lower bound), R-hat 14.7
+    rng = np.random.default_rng(0)
+    draws = np.column_stack([1.3 + 0.01 * rng.standard_normal(400), np.full(400, 1e4)])
+    g = bound_findings(["kappa", "C"], draws, np.array([0.0, 1e4]), np.array([10.0, 1e7]))
+    assert [x.text.split()[0] for x in g] == ["C"]
 
 
 def test_add_finer_h_works_and_a_failed_fit_says_so(tmp_path, monkeypatch):

@@ -19,7 +19,12 @@ A candidate is **claimable** only if :math:`D_c >` :data:`DATA_THRESHOLD` *on it
 the priors hold what the data held, e.g. ``radiation_factor`` or ``wind_convection`` replacing a
 free h(t)) or of the prior penalty can never carry a claim, and a candidate whose fit is worse
 never is one. ``DATA_THRESHOLD`` is calibrated on clean twins (``make validate``: the
-false-alarm rate on 24 clean twins must stay <= 1/20).
+false-alarm rate on 24 clean twins must stay <= 1/20). Measured on the corpus's 24 clean twins:
+the largest data part of any catalogue candidate is 9.3 where h(t) is hourly or per interval;
+with Case A's three h pieces catalogue candidates reach 330, but a finer h(t) reaches 180-1500
+there and is claimed instead (the coarse h is itself the misspecification). 20 is twice the
+clean maximum; the true effect's data part on the catalogue twins is 40-1260 (measured 0/24
+false alarms, true effect first on 13 of 20 catalogue twins).
 
 One exception (the real-data issue): when the base fit is **physically impossible** (kappa or C
 outside every ground material, :func:`~pavement_mcmc.physics.materials.check_values`), a

@@ -69,18 +69,24 @@ def _bounds(run_dir: Path) -> list[Guard]:
     burn = int(data.meta.get("burn_in", chain.shape[0] // 2))
     flat = chain[min(burn, chain.shape[0] - 1):].reshape(-1, chain.shape[2])
     lo, hi = problem.space.bounds()
+    free = problem.space.free
+    cols = [j for j, n in enumerate(data.param_names) if n in free]
+    idx = [free.index(data.param_names[j]) for j in cols]
+    return bound_findings([data.param_names[j] for j in cols], flat[:, cols], lo[idx], hi[idx])
+
+
+def bound_findings(names: list[str], draws: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> list[Guard]:
+    """Parameters (columns of ``draws``) with :data:`BOUND_SHARE` of their draws within
+    :data:`BOUND_REL` of the span at a finite bound."""
     out = []
-    for j, name in enumerate(data.param_names):
-        i = problem.space.free.index(name) if name in problem.space.free else None
-        if i is None:
-            continue
-        a, b = lo[i], hi[i]
-        span = b - a if np.isfinite(b - a) else max(float(np.abs(flat[:, j]).max()), 1.0)
-        near = np.zeros(flat.shape[0], bool)
+    for j, name in enumerate(names):
+        a, b = lo[j], hi[j]
+        span = b - a if np.isfinite(b - a) else max(float(np.abs(draws[:, j]).max()), 1.0)
+        near = np.zeros(draws.shape[0], bool)
         if np.isfinite(a):
-            near |= flat[:, j] - a <= BOUND_REL * span
+            near |= draws[:, j] - a <= BOUND_REL * span
         if np.isfinite(b):
-            near |= b - flat[:, j] <= BOUND_REL * span
+            near |= b - draws[:, j] <= BOUND_REL * span
         if near.mean() >= BOUND_SHARE:
             out.append(Guard("warn", "at_bound", f"{name} sits at a bound ({100 * near.mean():.0f} % "
                              f"of the kept draws within {BOUND_REL:g} of the range [{a:g}, {b:g}]): "
