@@ -128,6 +128,13 @@ def test_guards_refuse_unfinished_and_failed_runs_and_flag_unconverged(tiny_run,
     draws = np.column_stack([1.3 + 0.01 * rng.standard_normal(400), np.full(400, 1e4)])
     g = bound_findings(["kappa", "C"], draws, np.array([0.0, 1e4]), np.array([10.0, 1e7]))
     assert [x.text.split()[0] for x in g] == ["C"]
+    # a calm night's h piling up at h = 0 and a small smoothness precision are the quantities'
+    # own limits (the grass record's base fit: 19 such warnings), not a stuck chain
+    night = np.abs(0.002 * rng.standard_normal(400))
+    gamma = 0.004 + 0.0008 * rng.standard_normal(400)
+    g = bound_findings(["h_17", "gamma"], np.column_stack([night, gamma]),
+                       np.array([0.0, 0.0]), np.array([500.0, 1e4]))
+    assert g == []
 
 
 def test_add_finer_h_works_and_a_failed_fit_says_so(tmp_path, monkeypatch):

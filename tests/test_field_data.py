@@ -74,3 +74,37 @@ def test_run_summary_and_fit_output_state_the_plausibility(tiny_run):
     assert [f.level for f in found] == ["alarm", "alarm"]
     assert plausibility(problem, [{"parameter": "kappa", "mean": 1.3},
                                   {"parameter": "C", "mean": 1.9e6}]) == []
+
+
+def test_sensitivity_leaves_the_plate_factor_out_of_the_temperature_matrix(tmp_path):
+    """A plate's calibration factor does not enter the temperatures: in the temperature
+    sensitivity matrix it was a zero column ('no information', condition number inf on the
+    grass record). It is left out, and the output says why."""
+    import json
+
+    from pavement_mcmc.analysis.sensitivity import default_names
+    from pavement_mcmc.cli import main
+    from pavement_mcmc.data import load_case
+    from pavement_mcmc.posterior import build_problem
+    from pavement_mcmc.synthetic.corpus import get_twin, write_twin
+
+    case = write_twin(get_twin("field-none-s204"), tmp_path / "twin")
+    text = case.read_text()
+    text = text.replace('h = { kind = "per_interval", smooth = true }', 'h = { kind = "uniform", n = 4 }')
+    text = text.replace("bottom_cm = 50.0", "bottom_cm = 50.0\nwindow_hours = [0, 24]")
+    text = text.replace("dx = 0.005\ndt = 180.0\n", 'kind = "stretched"\n')
+    text = text.replace('[parameters.gamma]\nprior = { dist = "rayleigh", scale = 2.22 }\n', "")
+    case.write_text(text)
+    pb = build_problem(load_case(case))
+    assert "plate_G5cm" in pb.space.free
+    assert "plate_G5cm" not in default_names(pb.space, pb.model)
+    import contextlib
+    import io
+
+    buf = io.StringIO()
+    with contextlib.redirect_stdout(buf):
+        assert main(["sensitivity", str(case), "--json", "--out", str(tmp_path / "s")]) == 0
+    out = json.loads(buf.getvalue())
+    assert "plate_G5cm" not in out["max_abs"] and "kappa" in out["max_abs"]
+    assert np.isfinite(out["identifiability"]["condition_number"])
+    assert not any("plate_G5cm" in v for v in out["identifiability"]["verdict"])

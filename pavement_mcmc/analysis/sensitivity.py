@@ -133,10 +133,12 @@ class Identifiability:
 # --------------------------------------------------------------------------------- values
 
 
-def default_names(space) -> list[str]:
-    """Free parameters that enter the forward model (hyperparameters such as ``gamma``, which
-    only enter the prior, are left out)."""
+def default_names(space, model=None) -> list[str]:
+    """Free parameters that enter the predicted temperatures (hyperparameters such as ``gamma``,
+    which only enter the prior, and a heat-flux plate's calibration factor, which only enters
+    the plate's reading, are left out)."""
     hyper = {getattr(jp, "gamma_name", None) for jp in space.joint_priors}
+    hyper |= set(getattr(model, "plate_names", None) or [])
     return [n for n in space.free if n not in hyper]
 
 

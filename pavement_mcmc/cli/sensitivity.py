@@ -37,7 +37,7 @@ def run(args) -> int:
     from ..plotting import plot_identifiability, plot_sensitivity
 
     problem, values = load_problem(args.case, args.assign)
-    names = default_names(problem.space)
+    names = default_names(problem.space, problem.model)
     sens = reduced_sensitivity(problem.model, values, names, rel_step=args.rel_step,
                                space=problem.space)
     sigma = float(problem.meas.sigma)
@@ -70,6 +70,9 @@ def run(args) -> int:
     note = problem.model.boundary_note()
     if note:
         lines.append(f"  - {note}")
+    if problem.model.plate_names:
+        lines.append(f"  - not in this table: {', '.join(problem.model.plate_names)} (a plate's "
+                     "calibration factor enters only the plate's reading, not the temperatures)")
     lines += [f"wrote {f1}", f"wrote {f2}"]
     payload = {
         "case": name,

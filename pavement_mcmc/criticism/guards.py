@@ -77,13 +77,15 @@ def _bounds(run_dir: Path) -> list[Guard]:
 
 def bound_findings(names: list[str], draws: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> list[Guard]:
     """Parameters (columns of ``draws``) with :data:`BOUND_SHARE` of their draws within
-    :data:`BOUND_REL` of the span at a finite bound."""
+    :data:`BOUND_REL` of the span at a finite bound. A lower bound at zero is the quantity's own
+    limit (h >= 0 at a calm night, the smoothness precision, a resistance): a posterior may
+    legitimately pile up there, so only the other bounds (C >= 1e4, an offset's 1 cm) count."""
     out = []
     for j, name in enumerate(names):
         a, b = lo[j], hi[j]
         span = b - a if np.isfinite(b - a) else max(float(np.abs(draws[:, j]).max()), 1.0)
         near = np.zeros(draws.shape[0], bool)
-        if np.isfinite(a):
+        if np.isfinite(a) and a != 0.0:
             near |= draws[:, j] - a <= BOUND_REL * span
         if np.isfinite(b):
             near |= b - draws[:, j] <= BOUND_REL * span

@@ -85,7 +85,7 @@ def _figures(view: RunView, n_draws: int) -> list[tuple[str, Callable, str]]:
     def sens():
         mean = dict(zip(names, view.flat.mean(axis=0)))
         vals = parameter_values(pb.space, mean)
-        s = reduced_sensitivity(pb.model, vals, default_names(pb.space), space=pb.space)
+        s = reduced_sensitivity(pb.model, vals, default_names(pb.space, pb.model), space=pb.space)
         return pl.plot_sensitivity(s, sigma=meas.sigma)
 
     max_tau = float(np.nanmax([s["tau"] for s in a.table.values()]))
