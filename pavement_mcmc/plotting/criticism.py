@@ -86,7 +86,7 @@ def plot_residual_correlations(report, fig: Figure | None = None) -> Figure:
 RANKING_STYLE = {"claimed": ("C3", "missing effect (claimed)"),
                  "lookalike": ("C1", "look-alike (detected, not claimed)"),
                  "prior": ("0.85", "prior-driven (not claimed)"),
-                 "other": ("0.6", "below the threshold")}
+                 "other": ("0.6", "not claimed (data part below the threshold, or at a bound)")}
 
 
 def ranking_status(ranking, entry) -> str:
