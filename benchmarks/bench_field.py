@@ -13,8 +13,8 @@
    split-R-hat < 1.01, no drift) with ``hmc``: the base fit and (at most 300 s) the fit with
    the surface energy balance's best candidate, ``surface_layer``; wall time includes the MAP.
    Side by side (not with ``quick``), the baseline: the base fit with the metric adapted once
-   at step 75, the setting before the doubling windows. Gradient counts do not depend on the machine's load; seconds do (the load
-   average is printed).
+   at step 75, the setting before the doubling windows. Gradient counts do not depend on the
+   machine's load; seconds do (the load average is printed).
 
 ``python benchmarks/bench_field.py [--quick]``.
 """
