@@ -167,3 +167,91 @@ def test_a_laplace_precision_that_is_not_positive_definite_is_regularised_with_a
     lap.cov_z = bad  # what the old inverse could hand to the start draws
     draws = lap.draw(np.random.default_rng(0), 50)
     assert np.all(np.isfinite(draws))
+
+
+def _reference_drift(x, p, L, lo, hi, eps):
+    """The reflecting drift written plainly, one chain and one reflection at a time."""
+    x, p = x.copy(), p.copy()
+    for c in range(x.shape[0]):
+        t_left = eps[c]
+        while True:
+            v = L @ p[c]
+            with np.errstate(divide="ignore", invalid="ignore"):
+                t = np.where(v < 0, np.maximum((lo - x[c]) / v, 0), np.inf)
+                t = np.minimum(t, np.where(v > 0, np.maximum((hi - x[c]) / v, 0), np.inf))
+            k = int(np.argmin(t))
+            if t[k] >= t_left:
+                x[c] = x[c] + t_left * v
+                break
+            x[c] = x[c] + t[k] * v
+            x[c, k] = lo[k] if v[k] < 0 else hi[k]
+            t_left -= t[k]
+            n = L[k]
+            p[c] = p[c] - 2 * (p[c] @ n) / (n @ n) * n
+    return x, p
+
+
+def test_compiled_reflecting_drift_matches_the_plain_one_and_is_reversible():
+    """Many reflections in a narrow box with a correlated metric: the compiled drift gives the
+    plain algorithm's positions and momenta, stays inside the box, keeps |p| (specular
+    reflection), and drifting back with -p returns to the start (reversibility, which the
+    Metropolis test needs)."""
+    from pavement_mcmc.samplers.reflect import reflect_drift
+
+    rng = np.random.default_rng(7)
+    m, d = 12, 9
+    A = rng.standard_normal((d, d))
+    L = np.linalg.cholesky(A @ A.T / d + 0.2 * np.eye(d))
+    lo, hi = -0.5 * np.ones(d), np.r_[0.4 * np.ones(d - 2), np.inf, np.inf]
+    lo[0] = -np.inf
+    x0 = rng.uniform(-0.4, 0.3, (m, d))
+    p0 = rng.standard_normal((m, d))
+    eps = rng.uniform(1.0, 3.0, m)  # long flights: tens of reflections each
+    x, p = x0.copy(), p0.copy()
+    stuck = reflect_drift(x, p, p @ L.T, L, L @ L.T, lo, hi, eps, 10_000)
+    xr, pr = _reference_drift(x0, p0, L, lo, hi, eps)
+    assert not stuck.any()
+    np.testing.assert_allclose(x, xr, atol=1e-9)
+    np.testing.assert_allclose(p, pr, atol=1e-9)
+    assert np.all((x >= lo) & (x <= hi))
+    np.testing.assert_allclose(np.sum(p * p, 1), np.sum(p0 * p0, 1), rtol=1e-10)
+    assert np.any(np.abs(p - p0) > 0.1)  # it did reflect
+    xb, pb = x.copy(), -p
+    reflect_drift(xb, pb, pb @ L.T, L, L @ L.T, lo, hi, eps, 10_000)
+    np.testing.assert_allclose(xb, x0, atol=1e-8)
+    np.testing.assert_allclose(-pb, p0, atol=1e-8)
+    few = reflect_drift(x0.copy(), p0.copy(), p0 @ L.T, L, L @ L.T, lo, hi, eps, 2)
+    assert few.all()  # more than two reflections each: all stuck
+
+
+def test_laplace_metric_at_a_bound_takes_the_exponential_scale():
+    """A Gaussian whose mass lies far below the bound p0 >= a (a = mean + 4 sd), given its
+    exact Laplace approximation at the constrained mode: the posterior of p0 is ~exponential
+    of scale S00 / (a - m0), 4.4x narrower than the curvature's sd, which the start metric
+    used to take. Now the metric's sd of p0 is the truncated posterior's within 25 %, its
+    correlations are dropped, and the other coordinates keep their Laplace sd."""
+    post, a = _truncated(cut_sd=4.0)
+    m, S = post.mean, post.cov
+    mode = m + S[:, 0] / S[0, 0] * (a - m[0])  # the mode on the bound p0 = a
+    lap = dataclasses.replace(find_map(post), theta=mode, cov=S.copy())
+    s = get_sampler("hmc", post, n_chains=8, seed=1)
+    s.prepare(laplace=lap)
+    M = s.L @ s.L.T
+    sd0 = np.sqrt(S[0, 0])
+    tn = stats.truncnorm((a - m[0]) / sd0, np.inf, loc=m[0], scale=sd0)
+    assert sd0 / tn.std() > 4  # the curvature's sd, the metric before
+    assert abs(np.sqrt(M[0, 0]) / tn.std() - 1) < 0.25, (np.sqrt(M[0, 0]), tn.std())
+    np.testing.assert_allclose(M[0, 1:], 0.0, atol=1e-12)
+    np.testing.assert_allclose(np.sqrt(np.diag(M))[1:], np.sqrt(np.diag(S))[1:], rtol=1e-6)
+
+
+def test_the_adaptation_lasts_until_the_last_metric_window_and_50_steps_after():
+    """With three metric windows (ends at steps 50, 100, 200) the loop's default adaptation is
+    250 steps; it was a fixed 150, so the third window was never reached."""
+    post = LinearGaussian(seed=3, d=4)
+    s = get_sampler("hmc", post, n_chains=8, seed=1, options={"metric_windows": 3})
+    assert s.adapt_length() == 250
+    assert get_sampler("hmc", post, n_chains=8, seed=1).adapt_length() == 150
+    s.prepare(laplace=find_map(post))
+    res = run_sampler(s, _store(post, s.n_chains), ess_target=1e9, max_steps=260)
+    assert res.n_adapt_rows == 250 and s.n_metric == 3

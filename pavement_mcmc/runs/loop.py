@@ -205,15 +205,17 @@ def run_sampler(
     The sampler must be prepared (fresh run, ``store`` empty) or restored with
     :meth:`Sampler.set_state` from ``store.state`` (resume; the rows already in ``store`` are
     read back for the diagnostics). ``burn_in`` and ``n_adapt`` are in steps; the adaptation
-    length defaults to :data:`DEFAULT_ADAPT` (or to ``burn_in`` when given). Steps are
+    length defaults to the sampler's :meth:`~pavement_mcmc.samplers.Sampler.adapt_length`, else
+    :data:`DEFAULT_ADAPT` (or to ``burn_in`` when given). Steps are
     stored every ``thin``-th step. The run does not stop on convergence before ``min_steps``
     (a resume asked for more steps). Returns a :class:`RunResult`.
     """
     t0 = time.perf_counter()
     thin = int(thin)
     if n_adapt is None:
-        n_adapt = burn_in if burn_in is not None else DEFAULT_ADAPT.get(
-            sampler.name, lambda d: 0)(sampler.ndim)
+        n_adapt = burn_in if burn_in is not None else sampler.adapt_length()
+    if n_adapt is None:
+        n_adapt = DEFAULT_ADAPT.get(sampler.name, lambda d: 0)(sampler.ndim)
     if not sampler.adaptive:
         n_adapt = 0
     n_adapt = -(-int(n_adapt) // thin) * thin

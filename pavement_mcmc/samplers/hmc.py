@@ -12,26 +12,34 @@ parameter but gamma with gamma integrated out, log-likelihood + univariate log-p
 as in :mod:`.marginal_rw`; otherwise the posterior of all free parameters.
 
 Preparation: the (gamma-marginal) MAP and its Laplace covariance ``Sigma = L L^T``; the chains
-start from it, over-dispersed. Dynamics in whitened coordinates ``u = L^{-1} x`` (identity
-mass): leapfrog steps of size ``eps`` (jittered by +-20 % per chain and step, so no trajectory
-length resonates), ``n_leapfrog = ceil(trajectory_length / eps)`` of them. Bounds (h >= 0,
+start from it, over-dispersed. Coordinates the mode pushes against a bound (night-time h at 0)
+take the scale of the exponential the posterior has there, ``1/|d log p / d x|``, not the
+curvature's (:func:`.target.bounded_laplace_cov`): on the Göttingen 72-h window the Laplace sd
+of those 43 h was 3.6x too wide and the step size fell to 0.01 (the 64-step cap) for the first
+100 adaptation steps; from the bounded metric it stays at 0.06-0.15 (37k instead of ~110k
+gradients to adapt; Case C to the stopping rule 114k instead of 174k, with the compiled
+reflections below). Dynamics in whitened coordinates ``u = L^{-1} x`` (identity mass):
+leapfrog steps of size ``eps`` (jittered by +-20 % per chain and step, so no trajectory length
+resonates), ``n_leapfrog = ceil(trajectory_length / eps)`` of them. Bounds (h >= 0,
 kappa, C > 0) are hyperplanes in ``u``; a drift that reaches one is reflected specularly there
 (the momentum's component along the plane's normal flips) and continues for the rest of the
 step — volume-preserving and reversible, so the Metropolis test on the total energy keeps the
-chain exact (Neal 2011, "MCMC using Hamiltonian dynamics", 5.5.1.5). The posterior is never
-evaluated outside the bounds.
+chain exact (Neal 2011, "MCMC using Hamiltonian dynamics", 5.5.1.5); compiled, one chain at a
+time (:mod:`.reflect`). The posterior is never evaluated outside the bounds.
 
 Adaptation (burn-in only, then frozen): ``eps`` by dual averaging towards an acceptance rate of
 ``target_acceptance`` (default 0.8; Hoffman & Gelman 2014), and the metric ``Sigma`` in
 doubling windows (as Stan does): at adaptation step ``metric_at`` (default 50) from the pooled
 chains since step ``metric_skip`` (10), then at ``2 metric_at`` from those since (shrunk 10 %
 towards its diagonal; ``adapt_metric = False`` keeps the Laplace one); after each the dual
-averaging starts again for the new metric. Use an adaptation of at least ~3 ``metric_at``
-steps (the loop's default for ``hmc`` is 150). Two windows against the former single one at
-step 75 (gradient evaluations, which do not depend on the machine's load; 16 chains, 400 steps
-after adaptation): Case C 30k instead of 35k evaluations to adapt and 60 instead of 70 per unit
-of the smallest ESS; on the Göttingen 72-h window the Laplace metric of the base fit is poor
-(step size 0.01, the 64-step cap), so the early first window matters more there.
+averaging starts again for the new metric; ``metric_windows = 3`` adds one at ``4 metric_at``
+(the Göttingen 72-h window's ``runs/grass.toml`` uses it: 196k instead of 212k gradients for
+the base fit, 447-512k instead of 643-698k with ``surface_layer``, single seeds; on Case C it
+costs 167k instead of 114k). The loop adapts until the last window's end plus 50 steps
+(:meth:`HMCSampler.adapt_length`: 150 steps for two windows, 250 for three). Two windows
+against the former single one at step 75 (gradient evaluations, which do not depend on the
+machine's load; 16 chains, 400 steps after adaptation): Case C 30k instead of 35k evaluations
+to adapt and 60 instead of 70 per unit of the smallest ESS.
 
 A step costs ``n_leapfrog`` gradient evaluations per chain; :attr:`Block.n_evals` counts them
 (each is one solve and one adjoint sweep, or ``2 d + 1`` solves by central differences for models
@@ -47,7 +55,8 @@ import numpy as np
 from ..posterior.map import find_map
 from ..posterior.marginal import gmrf_of
 from .base import Block, Sampler, start_points
-from .target import MarginalTarget, cholesky_of
+from .reflect import reflect_drift
+from .target import MarginalTarget, bounded_laplace_cov, cholesky_of
 
 #: dual-averaging constants (Hoffman & Gelman 2014, section 3.2)
 _DA_GAMMA, _DA_T0, _DA_KAPPA = 0.05, 10.0, 0.75
@@ -100,6 +109,13 @@ class HMCSampler(Sampler):
     def needs_laplace(self) -> bool:
         return gmrf_of(self.posterior.space) is None
 
+    def adapt_length(self) -> int:
+        """The last metric window's end and 50 steps for the step size to settle after it."""
+        o = self.options
+        if not o.adapt_metric or o.metric_windows < 1:
+            return 150
+        return max(150, o.metric_at * 2 ** (o.metric_windows - 1) + 50)
+
     # -- preparation -------------------------------------------------------------------------
     def prepare(self, theta0=None, laplace=None) -> None:
         space = self.posterior.space
@@ -107,10 +123,11 @@ class HMCSampler(Sampler):
         if self.marginal:  # marginal MAP, Laplace covariance, start points, gamma draw
             tg = self.target = MarginalTarget(self.posterior, theta0=theta0)
             self.n_prep_evals += tg.n_evals
-            cov = np.array(tg.mmap.cov)
-            self.theta = tg.start_points(self.rng, self.n_chains, cholesky_of(cov))
             self.idx, self.hcols, self.gi = tg.idx, tg.hcols, tg.gi
             self.lo, self.hi = tg.lo, tg.hi
+            self._set_hpos()
+            cov = self._bounded(tg.mmap.theta, np.array(tg.mmap.cov))
+            self.theta = tg.start_points(self.rng, self.n_chains, cholesky_of(cov))
         else:
             lap = laplace
             if lap is None:
@@ -119,10 +136,10 @@ class HMCSampler(Sampler):
             self.idx = np.arange(len(space.free))
             self.hcols, self.gi = np.zeros(0, int), None
             self.lo, self.hi = space.bounds()
+            self._set_hpos()
             self.theta = start_points(self, laplace=lap)[0]
-            cov = np.asarray(lap.cov, float)[np.ix_(self.idx, self.idx)]
-        pos = {int(c): j for j, c in enumerate(self.idx)}
-        self.hpos = np.array([pos[int(c)] for c in self.hcols], dtype=int)
+            cov = self._bounded(np.asarray(lap.theta, float),
+                                np.asarray(lap.cov, float)[np.ix_(self.idx, self.idx)])
         self._set_metric(cov)
         d = self.idx.size
         eps0 = float(self.options.step_size or 0.5 * d**-0.25)
@@ -135,8 +152,22 @@ class HMCSampler(Sampler):
         self.n_prep_evals += self.n_chains
         self.logp = self._joint_logp(self.theta)
 
+    def _set_hpos(self) -> None:
+        pos = {int(c): j for j, c in enumerate(self.idx)}
+        self.hpos = np.array([pos[int(c)] for c in self.hcols], dtype=int)
+
+    def _bounded(self, mode: np.ndarray, cov: np.ndarray) -> np.ndarray:
+        """The Laplace covariance with the coordinates the mode pushes against a bound given
+        their exponential scale (:func:`.target.bounded_laplace_cov`; one gradient)."""
+        with np.errstate(all="ignore"):
+            _, g, _, _ = self._value_grad(mode[None])
+        self.n_prep_evals += 1
+        i = self.idx
+        return bounded_laplace_cov(cov, mode[i], g[0], self.lo[i], self.hi[i])
+
     def _set_metric(self, cov: np.ndarray) -> None:
         self.L = cholesky_of(0.5 * (cov + cov.T))
+        self.M = self.L @ self.L.T  # the metric's columns, for the reflections
 
     def _n_leapfrog(self, eps: float) -> int:
         traj = self.options.trajectory_length
@@ -184,7 +215,8 @@ class HMCSampler(Sampler):
 
     # -- dynamics ----------------------------------------------------------------------------
     def _drift(self, x: np.ndarray, p: np.ndarray, eps: np.ndarray):
-        """Move for time ``eps`` (per chain) along x-velocity ``L p``, reflecting at the bounds.
+        """Move for time ``eps`` (per chain) along x-velocity ``L p``, reflecting at the bounds
+        (compiled: :func:`.reflect.reflect_drift`).
 
         Returns ``(x, p, stuck)``: ``stuck`` marks chains still reflecting after
         :data:`_MAX_REFLECTIONS` (their proposal is rejected by the caller, never raised)."""
@@ -193,28 +225,10 @@ class HMCSampler(Sampler):
         xn = x + eps[:, None] * v
         if np.all((xn >= lo) & (xn <= hi)):  # the common case: no bound reached
             return xn, p, np.zeros(x.shape[0], bool)
-        rows = np.arange(x.shape[0])
-        t_left = eps.copy()
-        for _ in range(_MAX_REFLECTIONS):
-            with np.errstate(divide="ignore", invalid="ignore"):
-                t_lo = np.where(v < 0, np.maximum((lo - x) / v, 0.0), np.inf)
-                t_hi = np.where(v > 0, np.maximum((hi - x) / v, 0.0), np.inf)
-            tt = np.minimum(t_lo, t_hi)
-            k = np.argmin(tt, axis=1)
-            tk = tt[rows, k]
-            hit = tk < t_left
-            dt = np.where(hit, tk, t_left)
-            x = x + dt[:, None] * v
-            t_left = t_left - dt
-            if not hit.any():
-                return np.clip(x, lo, hi), p, np.zeros(x.shape[0], bool)
-            r, kk = rows[hit], k[hit]
-            x[r, kk] = np.where(v[r, kk] < 0, lo[kk], hi[kk])
-            n = self.L[kk]  # the plane x_k = bound has normal L[k] in u
-            c = 2.0 * np.sum(p[r] * n, axis=1) / np.sum(n * n, axis=1)
-            p[r] -= c[:, None] * n
-            v[r] -= c[:, None] * (n @ self.L.T)
-        return np.clip(x, lo, hi), p, t_left > 0
+        x, p = np.array(x, float), np.array(p, float)
+        stuck = reflect_drift(x, p, v, self.L, self.M, lo, hi, np.asarray(eps, float),
+                              _MAX_REFLECTIONS)
+        return x, p, stuck
 
     def _trajectory(self, eps: np.ndarray):
         """One leapfrog trajectory from the current state; returns the proposal and log alpha."""
@@ -324,6 +338,7 @@ class HMCSampler(Sampler):
             setattr(self, k, np.array(arrays[k], dtype=float))
         for k in ("idx", "hcols", "hpos"):
             setattr(self, k, getattr(self, k).astype(int))
+        self.M = self.L @ self.L.T
         self.lo, self.hi = self.posterior.space.bounds()
         if self.marginal:
             self.target = MarginalTarget.restored(self.posterior, self.idx, self.hcols, self.gi)
