@@ -162,3 +162,26 @@ def test_registry_errors_and_clashes(ref):
 
     with pytest.raises(ValueError, match="clash.*kappa2"):
         _model(ref, ["two_layer", Clash()]).parameter_space()
+
+
+def test_parameter_columns_are_a_block_of_the_matrix_unless_replaced():
+    """``columns`` (h(t)'s pieces as one block, no per-name stacking) gives exactly the stacked
+    values, and falls back to stacking when a value was replaced after ``expand`` (the finite
+    differences of an extension's coefficients do that) or a name is fixed."""
+    from pavement_mcmc.parameters import Parameter
+    from pavement_mcmc.parameters.space import ParameterSpace, columns
+
+    space = ParameterSpace([Parameter(n, 1.0, 0.0, 10.0) for n in ("a", "h_1", "h_2", "h_3")]
+                           + [Parameter("h_4", 2.0, 0.0, 10.0, vary=False)])
+    theta = np.arange(12.0).reshape(3, 4)
+    p = space.expand(theta)
+    names = ("h_1", "h_2", "h_3")
+    block = columns(p, names)
+    np.testing.assert_array_equal(block, theta[:, 1:])
+    assert np.shares_memory(block, theta)  # a slice, not a copy
+    np.testing.assert_array_equal(columns(p, ("h_3", "a")), theta[:, [3, 0]])
+    q = {**p, "h_2": p["h_2"] + 1.0}  # a plain dict: stacked
+    np.testing.assert_array_equal(columns(q, names)[:, 1], theta[:, 2] + 1.0)
+    p["h_2"] = p["h_2"] + 1.0  # replaced in place: no longer the matrix's column
+    np.testing.assert_array_equal(columns(p, names)[:, 1], theta[:, 2] + 1.0)
+    np.testing.assert_array_equal(columns(p, ("h_3", "h_4"))[:, 1], 2.0)

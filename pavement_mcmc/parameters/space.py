@@ -149,7 +149,8 @@ class ParameterSpace:
         free = self.free
         if theta.shape[1] != len(free):
             raise ValueError(f"theta has {theta.shape[1]} columns, expected {len(free)}: {free}")
-        out = {n: theta[:, i] for i, n in enumerate(free)}
+        out = ParameterSets({n: theta[:, i] for i, n in enumerate(free)})
+        out.theta, out.col, out.views = theta, {n: i for i, n in enumerate(free)}, tuple(out.values())
         n_sets = theta.shape[0]
         for n, p in self.params.items():
             if not p.vary:
@@ -295,3 +296,28 @@ def _apply(p: Parameter, spec: dict) -> Parameter:
 
 def _natural(s: str):
     return [int(t) if t.isdigit() else t for t in re.split(r"(\d+)", s)]
+
+
+class ParameterSets(dict):
+    """``{name: (n_sets,)}`` as :meth:`ParameterSpace.expand` returns it, keeping the matrix
+    ``theta`` its free columns are views of, so :func:`columns` can hand many of them over as
+    one block (h(t)'s 144 pieces on a 72-h window) instead of stacking them one by one."""
+
+    theta: np.ndarray
+    col: dict[str, int]
+    views: tuple  # the column views, as expand made them
+
+
+def columns(p: dict[str, np.ndarray], names) -> np.ndarray:
+    """The parameters ``names`` of ``p`` as one (n_sets, len(names)) array: a slice of the
+    matrix behind a :class:`ParameterSets` when every one is still its own column there (not
+    replaced after :meth:`ParameterSpace.expand`), else stacked."""
+    theta = getattr(p, "theta", None)
+    if theta is not None and len(names):
+        idx = [p.col.get(n, -1) for n in names]
+        if min(idx) >= 0 and all(p[n] is p.views[i] for n, i in zip(names, idx, strict=True)):
+            lo = idx[0]
+            if idx == list(range(lo, lo + len(idx))):
+                return theta[:, lo:lo + len(idx)]
+            return theta[:, idx]
+    return np.stack([np.asarray(p[n], float) for n in names], axis=-1)

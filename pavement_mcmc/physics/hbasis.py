@@ -9,11 +9,13 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 
 from ..parameters import Parameter
 from ..parameters.priors import TruncatedNormal
+from ..parameters.space import columns
 
 
 @dataclass(frozen=True)
@@ -79,10 +81,19 @@ class HBasis:
             for i, n in enumerate(self.names)
         ]
 
+    @cached_property
+    def identity(self) -> bool:
+        """One piece per observation interval (``W`` the identity: no product needed)."""
+        return self.W.shape[0] == self.W.shape[1] and np.array_equal(self.W, np.eye(len(self.W)))
+
     def evaluate(self, p: dict[str, np.ndarray]) -> np.ndarray:
         """h on each observation interval, shape (n_sets, n_intervals)."""
-        H = np.stack([p[n] for n in self.names], axis=-1)
-        return H @ self.W.T
+        H = columns(p, self.names)
+        return np.array(H) if self.identity else H @ self.W.T  # a fresh array: hooks may edit it
+
+    def grad(self, g_h: np.ndarray) -> np.ndarray:
+        """Adjoint of :meth:`evaluate`: d loss / d h per interval -> per piece (n_sets, K)."""
+        return g_h if self.identity else g_h @ self.W
 
 
 #: the name under which a finer h(t) is a candidate of the criticism and a ``fit --add`` value

@@ -237,8 +237,9 @@ class Model:
             grads["kappa"] = g["kappa"].sum(axis=1)
         if "C" not in read:
             grads["C"] = g["C"][:, :-1].sum(axis=1)
+        h_block = None  # the pieces' gradients as one block (not a column per name)
         if not self.replaces_h and "h" not in read:
-            grads.update(zip(self.h_basis.names, (g["h"] @ self.h_basis.W).T, strict=True))
+            h_block = self.h_basis.grad(g["h"])
         fd = [n for n in ("kappa", "C") if n in read]
         if "h" in read and not self.replaces_h:
             fd += list(self.h_basis.names)
@@ -249,9 +250,13 @@ class Model:
         for name, v in direct.items():
             grads[name] = grads.get(name, 0.0) + v
         names = list(grads)
-        G = np.empty((out.shape[0], len(names)))
+        n_h = 0 if h_block is None else h_block.shape[1]
+        G = np.empty((out.shape[0], len(names) + n_h))
         for j, n in enumerate(names):  # assignment broadcasts scalars (no per-name array)
             G[:, j] = grads[n]
+        if h_block is not None:
+            G[:, len(names):] = h_block
+            names += list(self.h_basis.names)
         return out, names, G
 
     def _coefficient_vjp(self, p, names, g) -> dict[str, np.ndarray]:
@@ -274,24 +279,29 @@ class Model:
                     p: dict[str, np.ndarray]) -> tuple[np.ndarray, dict[str, np.ndarray]]:
         """Adjoint of :meth:`observe`: prediction cotangents -> nodal cotangents and the
         gradients of the observe hooks' parameters."""
-        gT = np.zeros(T_nodes.shape)
+        hooks = []  # the hooks' own nodal cotangents (none without observe hooks)
         direct: dict[str, np.ndarray] = {}
         for ext in reversed(self.extensions):
             if ext.observe_vjp is None:
                 continue
             g_pred, gT_ext, d = ext.observe_vjp(g_pred, T_nodes, p, self)
-            gT += gT_ext
+            hooks.append(gT_ext)
             direct.update(d)
-        return gT + self.observe_nominal_transpose(g_pred), direct
+        gT = self.observe_nominal_transpose(g_pred)  # a fresh array: add into it
+        for h in hooks:
+            gT += h
+        return gT, direct
 
     def observe_flux_vjp(self, g_flux: np.ndarray, T_nodes: np.ndarray, coeffs: Coefficients,
-                         p: dict[str, np.ndarray]) -> tuple[np.ndarray, dict[str, np.ndarray]]:
-        """Adjoint of :meth:`observe_flux`: plate cotangents -> (nodal cotangents, direct
-        gradients: the cell conductivities ``"kappa"`` and the calibration factors)."""
+                         p: dict[str, np.ndarray], gT: np.ndarray | None = None
+                         ) -> tuple[np.ndarray, dict[str, np.ndarray]]:
+        """Adjoint of :meth:`observe_flux`: plate cotangents -> (nodal cotangents, added into
+        ``gT`` when given; direct gradients: the cell conductivities ``"kappa"`` and the
+        calibration factors)."""
         raw = heat_flux(T_nodes, coeffs.kappa, self.grid.x, self._flux_c, self._flux_w)
         f = np.stack([np.asarray(p[n], float) for n in self.plate_names], axis=-1)
         gT, gk = heat_flux_vjp(g_flux * f[:, None, :], T_nodes, coeffs.kappa, self.grid.x,
-                               self._flux_c, self._flux_w)
+                               self._flux_c, self._flux_w, gT)
         direct = {"kappa": gk}
         for j, n in enumerate(self.plate_names):
             direct[n] = np.sum(g_flux[..., j] * raw[..., j], axis=1)

@@ -85,11 +85,13 @@ def heat_flux(T_nodes: np.ndarray, kappa: np.ndarray, x: np.ndarray, c: np.ndarr
 
 
 def heat_flux_vjp(g: np.ndarray, T_nodes: np.ndarray, kappa: np.ndarray, x: np.ndarray,
-                  c: np.ndarray, w: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+                  c: np.ndarray, w: np.ndarray, gT: np.ndarray | None = None
+                  ) -> tuple[np.ndarray, np.ndarray]:
     """Adjoint of :func:`heat_flux`: cotangents ``g`` (n_sets, n_obs, n_depths) -> (nodal
-    cotangents (n_sets, n_obs, n_nodes), cell-conductivity gradient (n_sets, n_cells))."""
+    cotangents (n_sets, n_obs, n_nodes), added into ``gT`` when given; cell-conductivity
+    gradient (n_sets, n_cells))."""
     dx = np.diff(x)
-    gT = np.zeros(T_nodes.shape)
+    gT = np.zeros(T_nodes.shape) if gT is None else gT
     gk = np.zeros(kappa.shape)
     for j in range(g.shape[-1]):
         for cell, wt in ((c[j], 1.0 - w[j]), (c[j] + 1, w[j])):

@@ -183,8 +183,7 @@ class LogPosterior:
                 keep["rmse"] = np.concatenate([keep["rmse"], np.sqrt(np.mean(rG * rG, axis=1))], axis=1)
                 gG = np.zeros_like(G)
                 gG[:, 1:, :] = -np.where(ok[:, None, None], rG, 0.0) / self.flux_sd**2
-                gTf, df = model.observe_flux_vjp(gG, T_nodes, coeffs, p)
-                gT += gTf
+                gT, df = model.observe_flux_vjp(gG, T_nodes, coeffs, p, gT)  # adds into gT
                 direct.update(df)
             return gT, direct
 

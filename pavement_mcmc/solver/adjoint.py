@@ -143,7 +143,7 @@ def solve_vjp(
     G = np.asarray(cotangent_fn(out), dtype=float)
     if G.shape != out.shape:
         raise ValueError(f"cotangent_fn returned shape {G.shape}, expected the output's {out.shape}")
-    if not np.all(np.isfinite(G)):
+    if not solver._all_finite(G):
         raise ValueError("cotangent_fn returned non-finite values")
     GT = np.ascontiguousarray(G.transpose(1, 2, 0))
     # 3. reverse sweep: the scale-free sums of pavement_mcmc.solver.kernels.adjoint, (n, n_sets) each
