@@ -317,7 +317,7 @@ def columns(p: dict[str, np.ndarray], names) -> np.ndarray:
         idx = [p.col.get(n, -1) for n in names]
         if min(idx) >= 0 and all(p[n] is p.views[i] for n, i in zip(names, idx, strict=True)):
             lo = idx[0]
-            if idx == list(range(lo, lo + len(idx))):
+            if idx == list(range(lo, lo + len(idx))):  # consecutive columns: a view, no copy
                 return theta[:, lo:lo + len(idx)]
             return theta[:, idx]
     return np.stack([np.asarray(p[n], float) for n in names], axis=-1)

@@ -47,9 +47,6 @@ TAU_ROWS, RHAT_ROWS = 1000, 500
 #: depends on its seed only, never on the machine's speed, and the checks cost a bounded share
 CHECK_FIRST, CHECK_GROWTH, SKIP_FRACTION = 20, 1.15, 0.7
 
-DEFAULT_ADAPT = {"fast": lambda d: max(150, 10 * d), "hmc": lambda d: 150, "mh": lambda d: max(2000, 50 * d),
-                 "emcee": lambda d: 0}
-
 
 @dataclass
 class RunResult:
@@ -205,8 +202,8 @@ def run_sampler(
     The sampler must be prepared (fresh run, ``store`` empty) or restored with
     :meth:`Sampler.set_state` from ``store.state`` (resume; the rows already in ``store`` are
     read back for the diagnostics). ``burn_in`` and ``n_adapt`` are in steps; the adaptation
-    length defaults to the sampler's :meth:`~pavement_mcmc.samplers.Sampler.adapt_length`, else
-    :data:`DEFAULT_ADAPT` (or to ``burn_in`` when given). Steps are
+    length defaults to the sampler's :meth:`~pavement_mcmc.samplers.Sampler.adapt_length` (or to
+    ``burn_in`` when given). Steps are
     stored every ``thin``-th step. The run does not stop on convergence before ``min_steps``
     (a resume asked for more steps). Returns a :class:`RunResult`.
     """
@@ -214,8 +211,6 @@ def run_sampler(
     thin = int(thin)
     if n_adapt is None:
         n_adapt = burn_in if burn_in is not None else sampler.adapt_length()
-    if n_adapt is None:
-        n_adapt = DEFAULT_ADAPT.get(sampler.name, lambda d: 0)(sampler.ndim)
     if not sampler.adaptive:
         n_adapt = 0
     n_adapt = -(-int(n_adapt) // thin) * thin

@@ -86,9 +86,9 @@ class Sampler:
     def default_chains(ndim: int) -> int:
         return 32
 
-    def adapt_length(self) -> int | None:
-        """Adaptation steps this sampler's options need (None: the loop's default for it)."""
-        return None
+    def adapt_length(self) -> int:
+        """Adaptation (burn-in) steps the run loop gives this sampler by default (0: none)."""
+        return 0
 
     def needs_laplace(self) -> bool:
         """Whether :meth:`prepare` uses a MAP/Laplace approximation (passed as ``laplace``)."""

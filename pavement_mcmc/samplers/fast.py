@@ -53,6 +53,9 @@ class FastSampler(Sampler):
     def default_chains(ndim: int) -> int:
         return 64
 
+    def adapt_length(self) -> int:
+        return max(150, 10 * self.ndim)
+
     def _make_move(self, spec) -> Move:
         gmrf = gmrf_of(self.posterior.space) is not None
         if isinstance(spec, Move):

@@ -46,6 +46,9 @@ class MHSampler(Sampler):
     def default_chains(ndim: int) -> int:
         return 32
 
+    def adapt_length(self) -> int:
+        return max(2000, 50 * self.ndim)
+
     def prepare(self, theta0=None, laplace=None) -> None:
         self.theta, sd = start_points(self, theta0, laplace)
         self.logp, self.blobs = self.evaluate(self.theta)
