@@ -257,17 +257,20 @@ class ToyGMRF:
 
 @pytest.mark.parametrize("kind, move, opts, steps", [
     ("fast", "rw", {}, 6000), ("fast", "block", {}, 6000),
-    ("fast", "block", {"block_kind": "independence"}, 6000), ("hmc", None, {}, 800)])
+    ("fast", "block", {"block_kind": "independence"}, 6000), ("hmc", None, {}, 800),
+    ("hmc", None, {"log_positive": True}, 800)])
 def test_gamma_marginalised_sampler_matches_quadrature(kind, move, opts, steps):
     """`fast` with gamma integrated out (random walk on h, exact gamma draw), the block move
     (gamma/h joint moves + pCN) and `hmc` (Hamiltonian moves on h with gamma integrated out,
-    exact gamma draw) reproduce the joint posterior's gamma and h means and sds of a
-    small GMRF toy within Monte Carlo error."""
+    exact gamma draw; also with h moved as log h) reproduce the joint posterior's gamma and h
+    means and sds of a small GMRF toy within Monte Carlo error."""
     post = ToyGMRF()
-    options = {"move": {"kind": move, **opts}} if kind == "fast" else {}
+    options = {"move": {"kind": move, **opts}} if kind == "fast" else opts
     s = get_sampler(kind, post, n_chains=32 if kind == "fast" else 16, seed=4, options=options)
     s.prepare()
     assert s.move.name == move if kind == "fast" else s.marginal
+    if kind == "hmc":
+        assert s.tlog.all() == bool(opts)
     store = _store(post, s.n_chains)
     res = run_sampler(s, store, ess_target=1e9, max_steps=steps, n_adapt=steps // 8)
     kept = store.read().chain[res.burn_in:]
@@ -286,13 +289,14 @@ def test_gamma_marginalised_sampler_matches_quadrature(kind, move, opts, steps):
     np.testing.assert_allclose(d.log_prob[-1], post(d.chain[-1])[0], rtol=0, atol=1e-8)
 
 
-@pytest.mark.parametrize("kind, move", [("fast", "rw"), ("fast", "block"), ("hmc", None)])
+@pytest.mark.parametrize("kind, move", [("fast", "rw"), ("fast", "block"), ("hmc", None),
+                                        ("hmc", "log")])
 def test_gamma_marginalised_resume_is_bit_for_bit(kind, move):
     post = ToyGMRF(seed=2)
     n = 120
 
     opts = ({"move": {"kind": move, "first_window": 20}} if move == "rw" else {"move": move}) \
-        if kind == "fast" else {"metric_at": 40}
+        if kind == "fast" else {"metric_at": 40, "log_positive": move == "log"}
 
     def prep():
         s = get_sampler(kind, post, n_chains=16, seed=7, options=opts)

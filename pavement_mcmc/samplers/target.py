@@ -140,15 +140,23 @@ class MarginalTarget:
 
         def draw(k, f):
             X = np.repeat(mm.theta[None, :], k, axis=0)
-            X[:, idx] += f * rng.standard_normal((k, d)) @ chol.T
-            span = hi[idx] - lo[idx]
-            Y = np.abs(X[:, idx] - lo[idx])
-            X[:, idx] = lo[idx] + np.where(np.isfinite(span), np.minimum(Y, span), Y)
+            X[:, idx] = reflect_into(X[:, idx] + f * rng.standard_normal((k, d)) @ chol.T,
+                                     lo[idx], hi[idx])
             return X
 
         theta = finite_draws(draw, n, self.posterior, inflate)
         theta[:, self.gi] = self.draw_gamma(rng, theta)
         return theta
+
+
+def reflect_into(X: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
+    """Points ``X`` (n, d) folded into ``[lo, hi]``: mirrored at the lower bound, clipped at
+    the upper one (start points drawn around a mode on a bound)."""
+    span = hi - lo
+    with np.errstate(invalid="ignore"):
+        Y = np.abs(X - lo)
+        out = lo + np.where(np.isfinite(span), np.minimum(Y, span), Y)
+    return np.where(np.isfinite(lo), out, np.minimum(X, hi))
 
 
 def bounded_laplace_cov(cov: np.ndarray, x: np.ndarray, grad: np.ndarray, lo: np.ndarray,
