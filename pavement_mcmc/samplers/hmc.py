@@ -47,8 +47,9 @@ metric by the delta method, :mod:`.coords`; start points drawn in ``w``); the
 others stay linear (a night h at 0 in ``log`` made the step size fall to 0.017, 64 leapfrog
 steps). With a surface layer the Göttingen posterior of h is skewed (the soil feels
 ``h / (1 + h R)`` and ``q / (1 + h R)``, so roughly ``log h``): on the 72-h window, 1000 steps
-after adaptation, 160 instead of 205 gradients per chain per effective draw of the slowest
-parameter (seed 3; the roughness ``||Dh||^2`` tau 4.7 instead of 10.6 steps). Off by default:
+after adaptation, 177 / 122 / 160 instead of 253 / 209 / 205 gradients per chain per effective
+draw of the slowest parameter (seeds 1 / 2 / 3; the roughness ``||Dh||^2`` tau 5.4 / 4.9 / 4.7
+instead of 12.0 / 12.5 / 10.6 steps). Off by default:
 in ``log x`` a Gaussian's right tail gets a curvature growing like ``x^2``, which a chain
 started far out there cannot leave at the adapted step size.
 
