@@ -391,6 +391,8 @@ class HMCSampler(Sampler):
             setattr(self, k, extra[k])
         self.k_adapt, self.k_da, self.n_leapfrog = int(self.k_adapt), int(self.k_da), int(self.n_leapfrog)
         self.frozen, self.n_metric = bool(self.frozen), int(self.n_metric)
+        # a run saved before log coordinates existed has no "tlog": every coordinate linear
+        arrays = {"tlog": np.zeros(np.size(arrays["idx"])), **arrays}
         for k in _ARRAYS:
             setattr(self, k, np.array(arrays[k], dtype=float))
         for k in ("idx", "hcols", "hpos"):
