@@ -110,6 +110,20 @@ def test_log_metric_delta_method_and_exponential_at_the_bound():
     assert out[1, 0] == out[1, 2] == 0.0
 
 
+def test_log_coordinates_never_step_over_a_finite_upper_bound():
+    """The upper bound in log coordinates maps back inside the bound (exp(log 3) > 3 in
+    floating point: a chain reflected there would have left the support)."""
+    from pavement_mcmc.samplers.coords import bounds_w, to_x
+
+    hi = np.array([0.1, 2.0, 3.0, 10.0, 100.0, 500.0, np.inf, 7.0])
+    tlog = np.array([True] * 7 + [False])
+    assert np.any(np.exp(np.log(hi[:6])) > hi[:6])  # the rounding the bound must avoid
+    lo_w, hi_w = bounds_w(np.zeros(8), hi, tlog)
+    assert np.all(to_x(hi_w[None], tlog)[0] <= hi)
+    assert np.all(lo_w[:7] == -np.inf) and lo_w[7] == 0.0 and hi_w[6] == np.inf and hi_w[7] == 7.0
+    np.testing.assert_allclose(np.exp(hi_w[:6]), hi[:6], rtol=1e-15)
+
+
 def _central_grad(post, theta, rel=1e-6):
     """Central differences of the log-likelihood through the posterior's own residual path."""
     def ll(th):

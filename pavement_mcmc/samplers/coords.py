@@ -29,10 +29,19 @@ def to_x(w: np.ndarray, tlog: np.ndarray) -> np.ndarray:
 
 
 def bounds_w(lo: np.ndarray, hi: np.ndarray, tlog: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """The bounds ``(lo, hi)`` (d,) in the working coordinates (``tlog`` ones have ``lo = 0``)."""
+    """The bounds ``(lo, hi)`` (d,) in the working coordinates (``tlog`` ones have ``lo = 0``);
+    a finite upper one is the largest float whose ``exp`` does not exceed ``hi`` (``exp(log
+    hi)`` rounds above ``hi`` for about half of all values, e.g. 0.1 and 3)."""
     lo, hi = np.array(lo, float), np.array(hi, float)
+    top = hi[tlog]
     with np.errstate(divide="ignore"):
-        lo[tlog], hi[tlog] = -np.inf, np.log(hi[tlog])
+        w = np.log(top)
+    for _ in range(8):
+        over = np.exp(w) > top
+        if not over.any():
+            break
+        w[over] = np.nextafter(w[over], -np.inf)
+    lo[tlog], hi[tlog] = -np.inf, w
     return lo, hi
 
 
