@@ -51,9 +51,8 @@ after adaptation, 177 / 122 / 160 instead of 253 / 209 / 205 gradients per chain
 draw of the slowest parameter (seeds 1 / 2 / 3; the roughness ``||Dh||^2`` tau 5.4 / 4.9 / 4.7
 instead of 12.0 / 12.5 / 10.6 steps). Off by default: on Case C (no layer, h's posterior
 close to Gaussian) it costs 158k / 194k instead of 114k gradients to the stopping rule (seeds
-1 / 2), and
-in ``log x`` a Gaussian's right tail gets a curvature growing like ``x^2``, which a chain
-started far out there cannot leave at the adapted step size.
+1 / 2), and in ``log x`` a Gaussian's right tail gets a curvature growing like ``x^2``,
+which a chain started far out there cannot leave at the adapted step size.
 
 A step costs ``n_leapfrog`` gradient evaluations per chain; :attr:`Block.n_evals` counts them
 (each is one solve and one adjoint sweep, or ``2 d + 1`` solves by central differences for models
