@@ -67,10 +67,10 @@ import numpy as np
 
 from ..posterior.map import find_map
 from ..posterior.marginal import gmrf_of
-from .base import Block, Sampler, finite_draws, start_points
+from .base import Block, Sampler, start_points
 from .coords import bounds_w, in_log, log_metric, to_w, to_x
 from .reflect import reflect_drift
-from .target import MarginalTarget, bounded_laplace_cov, cholesky_of, reflect_into
+from .target import MarginalTarget, bounded_laplace_cov, cholesky_of, draws_around
 
 #: dual-averaging constants (Hoffman & Gelman 2014, section 3.2)
 _DA_GAMMA, _DA_T0, _DA_KAPPA = 0.05, 10.0, 0.75
@@ -196,17 +196,10 @@ class HMCSampler(Sampler):
         clipped to +-2.5: a log coordinate starts within a few of its own sd of the mode, never
         in a Gaussian's far right tail, where in ``log x`` the curvature grows like ``x^2`` and
         a chain would stay stuck."""
-        i, d = self.idx, self.idx.size
-        w0 = to_w(mode[None, i], self.tlog)[0]
-        lo, hi = self.lo[i], self.hi[i]
-
-        def draw(k, f):
-            X = np.repeat(mode[None, :], k, axis=0)
-            z = np.clip(self.rng.standard_normal((k, d)), -2.5, 2.5)
-            X[:, i] = reflect_into(to_x(w0 + f * z @ self.L.T, self.tlog), lo, hi)
-            return X
-
-        theta = finite_draws(draw, self.n_chains, self.posterior, inflate)
+        i, t = self.idx, self.tlog
+        theta = draws_around(self.rng, self.posterior, self.n_chains, mode, i,
+                             to_w(mode[None, i], t)[0], self.L, self.lo[i], self.hi[i], inflate,
+                             to_x=lambda w: to_x(w, t), clip=2.5)
         if self.marginal:
             theta[:, self.gi] = self.target.draw_gamma(self.rng, theta)
         return theta

@@ -135,18 +135,32 @@ class MarginalTarget:
                      inflate: float = 1.2) -> np.ndarray:
         """``n`` draws of N(marginal MAP, inflate^2 chol chol^T) in x, reflected into the bounds
         (h >= 0 at night sits on its bound at the mode), redrawn until finite; then gamma | h."""
-        mm, lo, hi, idx = self.mmap, self.lo, self.hi, self.idx
-        d = idx.size
-
-        def draw(k, f):
-            X = np.repeat(mm.theta[None, :], k, axis=0)
-            X[:, idx] = reflect_into(X[:, idx] + f * rng.standard_normal((k, d)) @ chol.T,
-                                     lo[idx], hi[idx])
-            return X
-
-        theta = finite_draws(draw, n, self.posterior, inflate)
+        mode, idx = self.mmap.theta, self.idx
+        theta = draws_around(rng, self.posterior, n, mode, idx, mode[idx], chol,
+                             self.lo[idx], self.hi[idx], inflate)
         theta[:, self.gi] = self.draw_gamma(rng, theta)
         return theta
+
+
+def draws_around(rng: np.random.Generator, posterior, n: int, mode: np.ndarray, idx: np.ndarray,
+                 center: np.ndarray, chol: np.ndarray, lo: np.ndarray, hi: np.ndarray,
+                 inflate: float, to_x=None, clip: float | None = None) -> np.ndarray:
+    """``n`` start points: ``mode`` with the columns ``idx`` drawn as ``center + inflate chol z``
+    (``z`` standard normal, clipped to ``+-clip`` if given) in some working coordinates,
+    mapped to ``x`` by ``to_x`` (default: they are ``x``), reflected into ``[lo, hi]`` and
+    redrawn (narrower) until the posterior is finite."""
+    d = idx.size
+
+    def draw(k, f):
+        X = np.repeat(mode[None, :], k, axis=0)
+        z = rng.standard_normal((k, d))
+        if clip is not None:
+            z = np.clip(z, -clip, clip)
+        w = center + f * z @ chol.T
+        X[:, idx] = reflect_into(w if to_x is None else to_x(w), lo, hi)
+        return X
+
+    return finite_draws(draw, n, posterior, inflate)
 
 
 def reflect_into(X: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
