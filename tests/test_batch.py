@@ -38,6 +38,14 @@ def _units():
                         overrides=SMALL)
 
 
+def _failed_units(out: Path) -> str:
+    """The units whose row says failed, with the reason (what a differing table hides)."""
+    import json
+
+    rows = [json.loads(p.read_text()) for p in sorted(out.glob("*/unit.json"))]
+    return "; ".join(f"{r['key']}: {r['reason']}" for r in rows if r["status"] == "failed")
+
+
 def _counts(counter: Path) -> dict[str, list[str]]:
     out: dict[str, list[str]] = {}
     for line in counter.read_text().splitlines() if counter.exists() else []:
@@ -100,7 +108,8 @@ def test_a_worker_killed_mid_unit_is_retried_and_changes_nothing(reference, tmp_
         th.join(timeout=120)
     starts = _counts(counter)["caseA@6-12h"]
     assert len(starts) == 2 and starts[0] != starts[1], starts  # run again on a new process
-    assert (tmp_path / "out" / TABLE).read_bytes() == (ref / TABLE).read_bytes()
+    assert (tmp_path / "out" / TABLE).read_bytes() == (ref / TABLE).read_bytes(), \
+        _failed_units(tmp_path / "out")
 
 
 def test_a_killed_batch_run_again_skips_finished_units(reference, tmp_path):
@@ -125,7 +134,7 @@ def test_a_killed_batch_run_again_skips_finished_units(reference, tmp_path):
     counts = _counts(counter)
     for key, mtime in finished.items():
         assert len(counts[key]) == 1 and (out / key / "unit.json").stat().st_mtime_ns == mtime
-    assert (out / TABLE).read_bytes() == (ref / TABLE).read_bytes()
+    assert (out / TABLE).read_bytes() == (ref / TABLE).read_bytes(), _failed_units(out)
 
 
 def _square(x, fail_on=None):
