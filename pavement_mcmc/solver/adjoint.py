@@ -145,13 +145,13 @@ def solve_vjp(
         raise ValueError(f"cotangent_fn returned shape {G.shape}, expected the output's {out.shape}")
     if not solver._all_finite(G):
         raise ValueError("cotangent_fn returned non-finite values")
-    GT = np.ascontiguousarray(G.transpose(1, 2, 0))
+    G = np.ascontiguousarray(G)  # the kernels read it as it is: no transposed copy
     # 3. reverse sweep: the scale-free sums of pavement_mcmc.solver.kernels.adjoint, (n, n_sets) each
     acc = (np.empty((N, S)), np.empty((N, S)), np.empty((n_obs - 1, S)), np.empty((n_obs, S)))
     if scalar:
-        KS.vjp_scalar(P, GT, buf, acc)
+        KS.vjp_scalar(P, G, buf, acc)
     else:
-        (K.vjp_parallel if parallel else K.vjp_serial)(P, outT, GT, stored, buf, block, acc)
+        (K.vjp_parallel if parallel else K.vjp_serial)(P, outT, G, stored, buf, block, acc)
     grads = _gradients(grid, kappa, C, h, q, *(a.T for a in acc))
     if P.top:  # no surface row: C_0, h and q do not enter the scheme
         grads["C"][:, 0] = 0.0

@@ -231,12 +231,13 @@ def _fwd_block(P, s0, nb, out, buf):
 
 
 @njit(cache=True, fastmath=_FM)
-def _vjp_block(P, out, GT, stored, buf, s0, nb, acc):
+def _vjp_block(P, out, G, stored, buf, s0, nb, acc):
     """Reverse sweep for sets ``s0 .. s0+nb-1``; fills their columns of the sums ``acc =
     (acc_a, acc_b, acc_h, acc_q)``, shaped (N, S), (N, S), (n_obs-1, S), (n_obs, S) (module
     docstring).
 
-    ``out`` (n_obs, N+1, S): the forward solution; ``GT`` (same shape): d loss / d out. If
+    ``out`` (n_obs, N+1, S): the forward solution; ``G`` (S, n_obs, N+1), in the caller's layout
+    (read once per interval, so no transposed copy is needed): d loss / d out. If
     ``stored``, the states are read from ``buf`` (filled by the forward with store); otherwise
     each interval is recomputed from ``out``.
     """
@@ -276,7 +277,7 @@ def _vjp_block(P, out, GT, stored, buf, s0, nb, acc):
             k = _advance(T_air, T_bot, T_top, n_start, damp, st, 0, j, ns, first[j], qa, qb, w, z)
         for i in range(N):
             for s in range(nb):
-                lam[i, s] += GT[j + 1, i, s0 + s]
+                lam[i, s] += G[s0 + s, j + 1, i]
         _retreat(
             T_air, T_bot, n_start, damp, st, k, j, ns, first[j], 0.5 * dt, w, z, gt, lam, mu,
             (a_b[0], a_b[1], h_b, q_b),
@@ -312,17 +313,17 @@ def fwd_serial(P, block, out, buf):
 
 
 @njit(cache=True, parallel=True)
-def vjp_parallel(P, out, GT, stored, buf, block, acc):
+def vjp_parallel(P, out, G, stored, buf, block, acc):
     """:func:`_vjp_block` over blocks of ``block`` sets, the blocks spread over numba's threads."""
     S = P.kappaT.shape[1]
     for b in prange((S + block - 1) // block):
         s0 = b * block
-        _vjp_block(P, out, GT, stored, buf, s0, min(block, S - s0), acc)
+        _vjp_block(P, out, G, stored, buf, s0, min(block, S - s0), acc)
 
 
 @njit(cache=True)
-def vjp_serial(P, out, GT, stored, buf, block, acc):
+def vjp_serial(P, out, G, stored, buf, block, acc):
     """As :func:`vjp_parallel`, on the calling thread."""
     S = P.kappaT.shape[1]
     for s0 in range(0, S, block):
-        _vjp_block(P, out, GT, stored, buf, s0, min(block, S - s0), acc)
+        _vjp_block(P, out, G, stored, buf, s0, min(block, S - s0), acc)

@@ -88,10 +88,10 @@ def fwd_scalar(P, out, buf):
 
 
 @njit(cache=True, fastmath=_FM)
-def vjp_scalar(P, GT, buf, acc):
+def vjp_scalar(P, G, buf, acc):
     """Reverse sweep set by set over the states stored by :func:`fwd_scalar`; fills the sums
     ``acc = (acc_a, acc_b, acc_h, acc_q)``, shaped (N, S), (N, S), (n_obs-1, S), (n_obs, S), as
-    :func:`_vjp_block` (same steps as :func:`_adjoint_step`, scalar loops; a Dirichlet top has
+    :func:`_vjp_block`; ``G`` (S, n_obs, N+1): d loss / d out (same steps as :func:`_adjoint_step`, scalar loops; a Dirichlet top has
     ``invD0 = 0``, hence ``mu[0] = 0``)."""
     T_air, T_bot, t_obs, substeps, n_start, damp = P.T_air, P.T_bot, P.t_obs, P.substeps, P.n_start, P.damp
     acc_a, acc_b, acc_h, acc_q = acc
@@ -117,7 +117,7 @@ def vjp_scalar(P, GT, buf, acc):
                 dt_fact = dt
             invD0 = 0.0 if P.top else 1.0 / (d0 + hc * P.hT[j, s])
             for i in range(N):
-                lam[i] += GT[j + 1, i, s]
+                lam[i] += G[s, j + 1, i]
             k = slot0[j + 1]
             ah = 0.0
             for m in range(ns - 1, -1, -1):
