@@ -91,8 +91,8 @@ def fwd_scalar(P, out, buf):
 def vjp_scalar(P, G, buf, acc):
     """Reverse sweep set by set over the states stored by :func:`fwd_scalar`; fills the sums
     ``acc = (acc_a, acc_b, acc_h, acc_q)``, shaped (N, S), (N, S), (n_obs-1, S), (n_obs, S), as
-    :func:`_vjp_block`; ``G`` (S, n_obs, N+1): d loss / d out (same steps as :func:`_adjoint_step`, scalar loops; a Dirichlet top has
-    ``invD0 = 0``, hence ``mu[0] = 0``)."""
+    :func:`_vjp_block`; ``G`` (S, n_obs, N+1): d loss / d out (same steps as
+    :func:`_adjoint_step`, scalar loops; a Dirichlet top has ``invD0 = 0``, hence ``mu[0] = 0``)."""
     T_air, T_bot, t_obs, substeps, n_start, damp = P.T_air, P.T_bot, P.t_obs, P.substeps, P.n_start, P.damp
     acc_a, acc_b, acc_h, acc_q = acc
     N, S = P.kappaT.shape
