@@ -18,8 +18,10 @@ help:
 	@echo "make bench              solver and sampler benchmarks (figures and ratios)"
 	@echo "make lint               ruff"
 
+# --clear: a set-up interrupted half-way (e.g. during pip's own upgrade) leaves a broken pip
+# that a plain re-run would keep using; without the stamp, start from an empty venv
 $(STAMP): pyproject.toml
-	$(PYTHON) -m venv $(VENV)
+	$(PYTHON) -m venv --clear $(VENV)
 	$(BIN)/python -m pip install -q --upgrade pip
 	$(BIN)/python -m pip install -q -e ".[test]"
 	touch $(STAMP)
