@@ -8,7 +8,9 @@
    ratio to the 1-day window: it should grow about linearly with the record. Side by side: the
    gradient on one thread (the serial blocks) against the two blocks of 8 sets on numba's
    threads that long solves use (``solver.forward._PARALLEL_WORK``); the two give the same
-   numbers bit for bit (checked here).
+   numbers bit for bit (checked here). ``kernels_ms``: how much of the threaded gradient is
+   spent in the compiled forward and reverse-sweep kernels; ``python_ms``, the rest (the
+   coefficients, the observation operators, the likelihood and its cotangent, in NumPy).
 2. The 72-h window run to the stopping rule (ESS >= 1000 for every parameter, >= 50 tau,
    split-R-hat < 1.01, no drift) with ``hmc`` and the case file's options (three metric
    windows, log coordinates for the positive parameters away from 0): the base fit and (at
@@ -40,6 +42,8 @@ from pavement_mcmc.posterior import build_problem  # noqa: E402
 from pavement_mcmc.runs import run_sampler  # noqa: E402
 from pavement_mcmc.samplers import get_sampler  # noqa: E402
 from pavement_mcmc.solver import forward  # noqa: E402
+from pavement_mcmc.solver.kernels import adjoint as _kadj  # noqa: E402
+from pavement_mcmc.solver.kernels import adjoint_scalar as _kadj_scalar  # noqa: E402
 from pavement_mcmc.storage import MemoryStore  # noqa: E402
 
 CASE = ROOT / "runs" / "grass.toml"
@@ -64,6 +68,37 @@ def _best(fn, repeats: int = 7) -> float:
     return best
 
 
+def _kernel_time(fn, repeats: int = 7) -> float:
+    """The least time, over ``repeats`` calls of ``fn``, spent inside the compiled forward and
+    reverse-sweep kernels (the rest of a gradient is Python): the kernels are wrapped with a
+    timer for the duration."""
+    mods = {_kadj: ("fwd_serial", "fwd_parallel", "vjp_serial", "vjp_parallel"),
+            _kadj_scalar: ("fwd_scalar", "vjp_scalar")}
+    spent = [0.0]
+    saved = {(m, n): getattr(m, n) for m, names in mods.items() for n in names}
+
+    def timed(kernel):
+        def call(*args):
+            t = time.perf_counter()
+            kernel(*args)
+            spent[0] += time.perf_counter() - t
+        return call
+
+    try:
+        for (m, n), kernel in saved.items():
+            setattr(m, n, timed(kernel))
+        fn()
+        best = np.inf
+        for _ in range(repeats):
+            spent[0] = 0.0
+            fn()
+            best = min(best, spent[0])
+    finally:
+        for (m, n), kernel in saved.items():
+            setattr(m, n, kernel)
+    return best
+
+
 def cost_by_length(sets: int = 16) -> list[dict]:
     """Gradient and solve time for 1, 3 and 7 days (see the module docstring)."""
     rows = []
@@ -80,6 +115,7 @@ def cost_by_length(sets: int = 16) -> list[dict]:
             serial, g1 = _best(grad), grad()
             forward._PARALLEL_WORK = default
             threads, g2 = _best(grad), grad()
+            kernels = _kernel_time(grad)
         finally:
             forward._PARALLEL_WORK = default
         assert all(np.array_equal(a, b) for a, b in zip(g1, g2, strict=True))
@@ -88,7 +124,8 @@ def cost_by_length(sets: int = 16) -> list[dict]:
                      "nodes": pb.model.grid.n_nodes, "params": len(pb.space.free),
                      "threads": forward._parallel(sets, pb.model.grid),
                      "grad_ms_1thread": 1e3 * serial, "grad_ms": 1e3 * threads,
-                     "thread_speedup": serial / threads, "solve_ms": 1e3 * s})
+                     "thread_speedup": serial / threads, "kernels_ms": 1e3 * kernels,
+                     "python_ms": 1e3 * (threads - kernels), "solve_ms": 1e3 * s})
     for r in rows:
         r["grad_vs_1day"] = r["grad_ms"] / rows[0]["grad_ms"]
         r["length_vs_1day"] = r["intervals"] / rows[0]["intervals"]
