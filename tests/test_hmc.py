@@ -67,20 +67,23 @@ def _near_zero(k_sd=1.5, seed=5):
     return post
 
 
-@pytest.mark.parametrize("log_positive", [True, False])
-def test_log_coordinates_keep_the_chain_exact(log_positive):
-    """A parameter bounded at 0 with its mode inside is sampled as log p0 (the Jacobian in the
-    target, the metric by the delta method); the draws still follow the truncated normal.
-    Without the Jacobian p0 would follow that density divided by p0 (mean 10 % lower here)."""
-    post = _near_zero()
-    s = get_sampler("hmc", post, n_chains=16, seed=3, options={"log_positive": log_positive})
+@pytest.mark.parametrize("option, k_sd, kind", [
+    ("log_positive", 1.5, 1), ("sqrt_at_zero", -0.5, 2), (None, 1.5, 0), (None, -0.5, 0)])
+def test_working_coordinates_keep_the_chain_exact(option, k_sd, kind):
+    """A parameter bounded at 0 sampled in working coordinates still follows its truncated
+    normal (the Jacobian in the target, the metric carried over), and so it does in linear
+    ones. Log: mode 1.5 sd inside the bound; without the Jacobian p0 would follow that density
+    divided by p0 (mean 10 % lower). Sqrt: mode on the bound (untruncated mean 0.5 sd below
+    it); without the Jacobian the density times 1 / (2 sqrt p0) (mean about 40 % lower)."""
+    post = _near_zero(k_sd=k_sd)
+    s = get_sampler("hmc", post, n_chains=16, seed=3, options={option: True} if option else {})
     s.prepare(laplace=find_map(post))
-    assert list(s.tlog) == [log_positive, False, False]
+    assert list(s.tlog) == [kind, 0, 0]
     store = _store(post, s.n_chains)
     res = run_sampler(s, store, ess_target=1e9, max_steps=1200, n_adapt=150)
     kept = store.read().chain[res.burn_in:]
     p0 = kept[..., 0].ravel()
-    assert p0.min() > 0.0
+    assert p0.min() >= 0.0
     m0, sd0 = post.mean[0], np.sqrt(post.cov[0, 0])
     tn = stats.truncnorm(-m0 / sd0, np.inf, loc=m0, scale=sd0)
     n_eff = ess(kept)[0]
@@ -89,6 +92,51 @@ def test_log_coordinates_keep_the_chain_exact(log_positive):
     np.testing.assert_allclose(p0.std(), tn.std(), rtol=0.06)
     thin = p0[:: max(1, int(p0.size / n_eff))]
     assert stats.kstest(thin, tn.cdf).pvalue > 1e-3
+
+
+def test_sqrt_coordinates_metric_and_upper_bound():
+    """In sqrt coordinates the metric of a variable of exponential scale s is (1 - pi/4) s,
+    uncorrelated (checked on draws), and the upper bound maps back inside it."""
+    from pavement_mcmc.samplers.coords import SQRT, bounds_w, log_metric, to_x
+
+    rng = np.random.default_rng(1)
+    cov = np.array([[0.37**2, 0.01], [0.01, 0.5]])
+    out = log_metric(cov, np.zeros(2), np.array([SQRT, 0]))
+    np.testing.assert_allclose(out[0, 0], np.var(np.sqrt(rng.exponential(0.37, 400_000))), rtol=0.01)
+    assert out[0, 1] == out[1, 0] == 0.0 and out[1, 1] == 0.5
+    hi = np.array([0.1, 2.0, 3.0, 10.0, 0.7, np.inf])
+    lo_w, hi_w = bounds_w(np.zeros(6), hi, np.full(6, SQRT))
+    assert np.all(to_x(hi_w[None], np.full(6, SQRT))[0] <= hi) and np.all(lo_w == 0.0)
+    np.testing.assert_allclose(hi_w[:5] ** 2, hi[:5], rtol=1e-15)
+
+
+def test_sqrt_coordinates_resume_bit_for_bit():
+    """The coordinate kinds are part of hmc's state: a run stopped inside the adaptation and
+    resumed with sqrt coordinates gives the uninterrupted run's chain bit for bit."""
+    post = _near_zero(k_sd=-0.5)
+    opts = {"sqrt_at_zero": True, "metric_at": 40}
+
+    def prep():
+        s = get_sampler("hmc", post, n_chains=16, seed=7, options=opts)
+        s.prepare(laplace=find_map(post))
+        return s
+
+    a = prep()
+    assert list(a.tlog) == [2, 0, 0]
+    st_a = _store(post, a.n_chains)
+    run_sampler(a, st_a, ess_target=1e9, max_steps=120, n_adapt=50)
+    b = prep()
+    st_b = _store(post, b.n_chains)
+    run_sampler(b, st_b, ess_target=1e9, max_steps=35, n_adapt=50)
+    c = get_sampler("hmc", post, options=opts)
+    c.set_state(st_b.state)
+    assert list(c.tlog) == [2, 0, 0]
+    st_c = MemoryStore.open_append(st_b)
+    run_sampler(c, st_c, ess_target=1e9, max_steps=120, n_adapt=50)
+    A, B = st_a.read(), st_c.read()
+    assert A.chain.shape[0] == 120
+    for field in ("chain", "log_prob", "accepted"):
+        np.testing.assert_array_equal(getattr(A, field), getattr(B, field))
 
 
 def test_log_metric_delta_method_and_exponential_at_the_bound():

@@ -54,6 +54,8 @@ close to Gaussian) it costs 158k / 194k instead of 114k gradients to the stoppin
 1 / 2), and in ``log x`` a Gaussian's right tail gets a curvature growing like ``x^2``,
 which a chain started far out there cannot leave at the adapted step size.
 
+Sqrt coordinates (``sqrt_at_zero``, for parameters piled against 0): :mod:`.coords`.
+
 A step costs ``n_leapfrog`` gradient evaluations per chain; :attr:`Block.n_evals` counts them
 (each is one solve and one adjoint sweep, or ``2 d + 1`` solves by central differences for models
 without an adjoint).
@@ -68,7 +70,7 @@ import numpy as np
 from ..posterior.map import find_map
 from ..posterior.marginal import gmrf_of
 from .base import Block, Sampler, start_points
-from .coords import bounds_w, in_log, log_metric, to_w, to_x
+from .coords import LOG, SQRT, bounds_w, in_log, log_metric, to_w, to_x
 from .reflect import reflect_drift
 from .target import MarginalTarget, bounded_laplace_cov, cholesky_of, draws_around
 
@@ -100,6 +102,8 @@ class HMCOptions:
     log_positive : sample ``log x`` instead of ``x`` for every parameter bounded below by 0
         whose mode lies more than one Laplace sd above 0 (h pieces away from 0, a layer's
         resistance); the draws are stored as ``x``. Off by default (see the module docstring).
+    sqrt_at_zero : sample ``sqrt x`` instead of ``x`` for every parameter bounded below by 0
+        whose mode lies within one Laplace sd of 0 (night-time h against their bound).
     """
 
     target_acceptance: float = 0.8
@@ -111,6 +115,7 @@ class HMCOptions:
     metric_skip: int = 10
     metric_windows: int = 2
     log_positive: bool = False
+    sqrt_at_zero: bool = False
 
 
 class HMCSampler(Sampler):
@@ -158,7 +163,9 @@ class HMCSampler(Sampler):
             mode = np.asarray(lap.theta, float)
             cov = self._bounded(mode, np.asarray(lap.cov, float)[np.ix_(self.idx, self.idx)])
         i = self.idx
-        self.tlog = self.options.log_positive & (self.lo[i] == 0.0) & (mode[i] > np.sqrt(np.diag(cov)))
+        at0, above = self.lo[i] == 0.0, mode[i] > np.sqrt(np.diag(cov))
+        self.tlog = np.where(self.options.log_positive & at0 & above, LOG,  # coordinate kinds
+                             np.where(self.options.sqrt_at_zero & at0 & ~above, SQRT, 0))
         self._set_bounds()
         self._set_metric(log_metric(cov, mode[i], self.tlog))
         if self.tlog.any():  # over-dispersed around the mode in the working coordinates
@@ -195,11 +202,21 @@ class HMCSampler(Sampler):
         """Draws of N(mode, inflate^2 metric) in the working coordinates, each standard normal
         clipped to +-2.5: a log coordinate starts within a few of its own sd of the mode, never
         in a Gaussian's far right tail, where in ``log x`` the curvature grows like ``x^2`` and
-        a chain would stay stuck."""
+        a chain would stay stuck. A sqrt coordinate starts at least half its metric sd above 0:
+        near 0 the Jacobian's gradient ``1/w`` rejects every trajectory (a chain started at
+        ``w`` = 1e-4 sd never moved on the Göttingen window)."""
         i, t = self.idx, self.tlog
+        sq = t == SQRT
+        floor = 0.5 * np.sqrt(np.diag(self.M))[sq]
+
+        def x_of(w):
+            w = np.array(w, float)
+            w[:, sq] = np.maximum(np.abs(w[:, sq]), floor)
+            return to_x(w, t)
+
         theta = draws_around(self.rng, self.posterior, self.n_chains, mode, i,
                              to_w(mode[None, i], t)[0], self.L, self.lo[i], self.hi[i], inflate,
-                             to_x=lambda w: to_x(w, t), clip=2.5)
+                             to_x=x_of, clip=2.5)
         if self.marginal:
             theta[:, self.gi] = self.target.draw_gamma(self.rng, theta)
         return theta
@@ -391,7 +408,7 @@ class HMCSampler(Sampler):
             setattr(self, k, np.array(arrays[k], dtype=float))
         for k in ("idx", "hcols", "hpos"):
             setattr(self, k, getattr(self, k).astype(int))
-        self.tlog = self.tlog.astype(bool)
+        self.tlog = self.tlog.astype(int)
         self.M = self.L @ self.L.T
         self.lo, self.hi = self.posterior.space.bounds()
         self._set_bounds()
