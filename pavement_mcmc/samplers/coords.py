@@ -18,7 +18,8 @@ Measured for ``SQRT`` (``hmc``, the 72-h Göttingen window with ``surface_layer`
 halves (4.3 instead of 8.4 steps; 89 instead of 160 gradients per chain per effective draw);
 to the stopping rule 309k instead of 504k gradients (seed 1, 102 s) but 520k against 518k
 (seed 2: split R-hat of two h stayed at 1.010-1.012 from ESS 2300 to 3500); the base fit, with
-65 such h instead of 18, needs half the step size (458k instead of 244k gradients, seed 1).
+65 such h instead of 18, needs half the step size (458k instead of 244k gradients, seed 1;
+389k with only the 44 h whose mode is on 0, below 0.01 sd).
 So it is off by default and in ``runs/grass.toml``. Start points of a ``SQRT`` coordinate lie
 at least half a metric sd above 0 (``hmc``): near 0 the Jacobian's ``1/w`` pull rejects every
 trajectory (a chain started at ``w`` = 1e-4 sd never moved).
