@@ -18,10 +18,12 @@ help:
 	@echo "make bench              solver and sampler benchmarks (figures and ratios)"
 	@echo "make lint               ruff"
 
-# --clear: a set-up interrupted half-way (e.g. during pip's own upgrade) leaves a broken pip
-# that a plain re-run would keep using; without the stamp, start from an empty venv
+# No stamp: the venv is missing or its set-up never finished (one interrupted during pip's own
+# upgrade cannot install any more), so it is made afresh. A stamp older than pyproject.toml:
+# the venv is kept and updated, the stamp removed first, so an interrupted update counts as
+# unfinished on the next run.
 $(STAMP): pyproject.toml
-	$(PYTHON) -m venv --clear $(VENV)
+	test -f $(STAMP) && rm -f $(STAMP) || $(PYTHON) -m venv --clear $(VENV)
 	$(BIN)/python -m pip install -q --upgrade pip
 	$(BIN)/python -m pip install -q -e ".[test]"
 	touch $(STAMP)
