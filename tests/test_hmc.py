@@ -110,6 +110,52 @@ def test_sqrt_coordinates_metric_and_upper_bound():
     np.testing.assert_allclose(hi_w[:5] ** 2, hi[:5], rtol=1e-15)
 
 
+def test_working_coordinates_carry_density_and_gradient():
+    """``in_log`` turns a log-density of x and its gradient into those of w, Jacobian included:
+    central differences of ``F(w) = f(x(w)) + log |dx/dw|`` (written out here: w for log, log 2w
+    for sqrt) match its gradient for linear, log and sqrt coordinates, and a sqrt coordinate at
+    or below 0 has density 0 without a NaN."""
+    from pavement_mcmc.samplers.coords import LOG, SQRT, in_log, to_x
+
+    kind = np.array([0, LOG, SQRT, SQRT])
+    a, b = np.array([0.3, -1.2, -0.7, 2.0]), np.array([-0.5, -0.2, -1.5, -0.4])
+
+    def f_and_g(x):
+        return np.sum(a * x + b * x * x, axis=1), a + 2.0 * b * x
+
+    def F(w):
+        x = to_x(w, kind)
+        return f_and_g(x)[0] + w[:, 1] + np.log(2.0 * w[:, 2]) + np.log(2.0 * w[:, 3])
+
+    w = np.array([[0.4, -0.3, 0.8, 0.05], [-1.1, 0.9, 0.2, 1.7]])
+    x = to_x(w, kind)
+    f, g = in_log(*f_and_g(x), w, x, kind)
+    np.testing.assert_allclose(f, F(w), rtol=1e-14)
+    fd = np.zeros_like(w)
+    for j in range(4):
+        e = np.zeros(4)
+        e[j] = 1e-6
+        fd[:, j] = (F(w + e) - F(w - e)) / 2e-6
+    np.testing.assert_allclose(g, fd, rtol=1e-6)
+    w0 = np.array([[0.4, -0.3, 0.0, 0.5], [0.4, -0.3, -0.1, 0.5]])
+    with np.errstate(all="raise"):
+        f0, g0 = in_log(*f_and_g(to_x(w0, kind)), w0, to_x(w0, kind), kind)
+    assert np.all(f0 == -np.inf) and np.all(g0 == 0.0)
+
+
+def test_sqrt_coordinates_start_half_a_metric_sd_above_zero():
+    """Start points of a sqrt coordinate lie at least half its metric sd above 0 (closer, the
+    Jacobian's 1/w pull rejects every trajectory): the floor binds for some of 16 chains, which
+    |N(0, 1.2^2)| draws would put below it about a third of the time."""
+    post = _near_zero(k_sd=-0.5)
+    s = get_sampler("hmc", post, n_chains=16, seed=3, options={"sqrt_at_zero": True})
+    s.prepare(laplace=find_map(post))
+    floor = 0.5 * np.sqrt(s.M[0, 0])
+    w0 = np.sqrt(s.theta[:, 0])
+    assert np.all(w0 >= floor * (1 - 1e-12)), (w0.min(), floor)
+    assert np.any(np.isclose(w0, floor, rtol=1e-12))
+
+
 def test_sqrt_coordinates_resume_bit_for_bit():
     """The coordinate kinds are part of hmc's state: a run stopped inside the adaptation and
     resumed with sqrt coordinates gives the uninterrupted run's chain bit for bit."""

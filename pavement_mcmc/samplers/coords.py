@@ -82,9 +82,9 @@ def in_log(f: np.ndarray, g: np.ndarray, w: np.ndarray, x: np.ndarray, kind: np.
     lg, sq = _masks(kind)
     if lg.any():
         f = f + np.sum(w[:, lg], axis=1)
-    if sq.any():
-        with np.errstate(divide="ignore"):
-            f = f + np.sum(np.log(2.0 * w[:, sq]), axis=1)
+    if sq.any():  # log 2w, -inf at (and below) the bound 0
+        with np.errstate(divide="ignore", invalid="ignore"):
+            f = f + np.sum(np.where(w[:, sq] > 0.0, np.log(2.0 * w[:, sq]), -np.inf), axis=1)
     ok = np.isfinite(f)[:, None]
     if lg.any():
         g[:, lg] = np.where(ok, g[:, lg] * x[:, lg] + 1.0, 0.0)
@@ -92,6 +92,7 @@ def in_log(f: np.ndarray, g: np.ndarray, w: np.ndarray, x: np.ndarray, kind: np.
         ws = w[:, sq]
         with np.errstate(divide="ignore", invalid="ignore"):
             g[:, sq] = np.where(ok, 2.0 * ws * g[:, sq] + 1.0 / ws, 0.0)
+        g[:] = np.where(ok, g, 0.0)  # a sqrt coordinate on 0 makes the density 0: no gradient
     return f, g
 
 
