@@ -44,6 +44,7 @@ from pavement_mcmc.samplers import get_sampler  # noqa: E402
 from pavement_mcmc.solver import forward  # noqa: E402
 from pavement_mcmc.solver.kernels import adjoint as _kadj  # noqa: E402
 from pavement_mcmc.solver.kernels import adjoint_scalar as _kadj_scalar  # noqa: E402
+from pavement_mcmc.solver.kernels import cn as _kcn  # noqa: E402
 from pavement_mcmc.storage import MemoryStore  # noqa: E402
 
 CASE = ROOT / "runs" / "grass.toml"
@@ -71,9 +72,11 @@ def _best(fn, repeats: int = 7) -> float:
 def _kernel_time(fn, repeats: int = 7) -> float:
     """The least time, over ``repeats`` calls of ``fn``, spent inside the compiled forward and
     reverse-sweep kernels (the rest of a gradient is Python): the kernels are wrapped with a
-    timer for the duration."""
+    timer for the duration. The plain solves count too (a gradient whose states exceed
+    ``solver.adjoint._STORE_MAX`` takes its forward from ``solve``)."""
     mods = {_kadj: ("fwd_serial", "fwd_parallel", "vjp_serial", "vjp_parallel"),
-            _kadj_scalar: ("fwd_scalar", "vjp_scalar")}
+            _kadj_scalar: ("fwd_scalar", "vjp_scalar"), _kcn: ("cn_serial", "cn_parallel"),
+            forward: ("cn_scalar",)}
     spent = [0.0]
     saved = {(m, n): getattr(m, n) for m, names in mods.items() for n in names}
 
