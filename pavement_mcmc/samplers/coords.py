@@ -40,7 +40,9 @@ def _masks(kind: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 def to_w(x: np.ndarray, kind: np.ndarray) -> np.ndarray:
-    """Working coordinates (n, d) of points ``x`` (n, d)."""
+    """Working coordinates (n, d) of points ``x`` (n, d) (``x`` itself if all are linear)."""
+    if not np.any(kind):  # all linear (hmc's default): no copy, no work
+        return x
     lg, sq = _masks(kind)
     w = np.array(x, float)
     w[:, lg] = np.log(np.maximum(w[:, lg], _TINY))
@@ -49,7 +51,9 @@ def to_w(x: np.ndarray, kind: np.ndarray) -> np.ndarray:
 
 
 def to_x(w: np.ndarray, kind: np.ndarray) -> np.ndarray:
-    """Points ``x`` (n, d) of working coordinates ``w`` (n, d)."""
+    """Points ``x`` (n, d) of working coordinates ``w`` (n, d) (``w`` itself if all are linear)."""
+    if not np.any(kind):
+        return w
     lg, sq = _masks(kind)
     x = np.array(w, float)
     x[:, lg] = np.exp(w[:, lg])
@@ -62,8 +66,8 @@ def bounds_w(lo: np.ndarray, hi: np.ndarray, kind: np.ndarray) -> tuple[np.ndarr
     ``lo = 0``); a finite upper one is the largest float that maps back to at most ``hi``
     (``exp(log hi)`` rounds above ``hi`` for about half of all values, e.g. 0.1 and 3)."""
     lo, hi = np.array(lo, float), np.array(hi, float)
-    for mask, fwd, back, low in ((_masks(kind)[0], np.log, np.exp, -np.inf),
-                                 (_masks(kind)[1], np.sqrt, np.square, 0.0)):
+    lg, sq = _masks(kind)
+    for mask, fwd, back, low in ((lg, np.log, np.exp, -np.inf), (sq, np.sqrt, np.square, 0.0)):
         top = hi[mask]
         with np.errstate(divide="ignore"):
             w = fwd(top)
@@ -79,6 +83,8 @@ def bounds_w(lo: np.ndarray, hi: np.ndarray, kind: np.ndarray) -> tuple[np.ndarr
 def in_log(f: np.ndarray, g: np.ndarray, w: np.ndarray, x: np.ndarray, kind: np.ndarray):
     """Log-density ``f`` (n,) and its gradient ``g`` (n, d) in ``x`` carried to ``w``
     (``g`` is changed in place; rows with a non-finite ``f`` get a zero gradient)."""
+    if not np.any(kind):
+        return f, g
     lg, sq = _masks(kind)
     if lg.any():
         f = f + np.sum(w[:, lg], axis=1)
