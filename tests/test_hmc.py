@@ -68,15 +68,18 @@ def _near_zero(k_sd=1.5, seed=5):
 
 
 @pytest.mark.parametrize("option, k_sd, kind", [
-    ("log_positive", 1.5, 1), ("sqrt_at_zero", -0.5, 2), (None, 1.5, 0), (None, -0.5, 0)])
+    ("log_positive", 1.5, 1), ("sqrt_at_zero", -0.5, 2), ("sqrt_shift", -0.5, 2), (None, 1.5, 0),
+    (None, -0.5, 0)])
 def test_working_coordinates_keep_the_chain_exact(option, k_sd, kind):
     """A parameter bounded at 0 sampled in working coordinates still follows its truncated
     normal (the Jacobian in the target, the metric carried over), and so it does in linear
     ones. Log: mode 1.5 sd inside the bound; without the Jacobian p0 would follow that density
     divided by p0 (mean 10 % lower). Sqrt: mode on the bound (untruncated mean 0.5 sd below
-    it); without the Jacobian the density times 1 / (2 sqrt p0) (mean about 40 % lower)."""
+    it); without the Jacobian the density times 1 / (2 sqrt p0) (mean about 40 % lower); with
+    hmc's default shift ``c`` of the sqrt (``sqrt_at_zero``) and without it (``sqrt_shift``: c = 0)."""
     post = _near_zero(k_sd=k_sd)
-    s = get_sampler("hmc", post, n_chains=16, seed=3, options={option: True} if option else {})
+    opts = {"sqrt_shift": {"sqrt_at_zero": True, "sqrt_shift": 0.0}}.get(option, {option: True})
+    s = get_sampler("hmc", post, n_chains=16, seed=3, options=opts if option else {})
     s.prepare(laplace=find_map(post))
     assert list(s.tlog) == [kind, 0, 0]
     store = _store(post, s.n_chains)
@@ -94,42 +97,52 @@ def test_working_coordinates_keep_the_chain_exact(option, k_sd, kind):
     assert stats.kstest(thin, tn.cdf).pvalue > 1e-3
 
 
-def test_sqrt_coordinates_metric_and_upper_bound():
-    """In sqrt coordinates the metric of a variable of exponential scale s is (1 - pi/4) s,
-    uncorrelated (checked on draws), and the upper bound maps back inside it."""
-    from pavement_mcmc.samplers.coords import SQRT, bounds_w, log_metric, to_x
+@pytest.mark.parametrize("c", [0.0, 0.04, 0.37])
+def test_sqrt_coordinates_metric_and_upper_bound(c):
+    """In sqrt coordinates ``w = sqrt(x + c) - sqrt c`` the metric of a variable of exponential
+    scale s is the variance of w (checked on draws; (1 - pi/4) s for c = 0), uncorrelated, the
+    upper bound maps back inside it, and ``to_w`` inverts ``to_x``."""
+    from pavement_mcmc.samplers.coords import SQRT, bounds_w, log_metric, to_w, to_x
 
     rng = np.random.default_rng(1)
     cov = np.array([[0.37**2, 0.01], [0.01, 0.5]])
-    out = log_metric(cov, np.zeros(2), np.array([SQRT, 0]))
-    np.testing.assert_allclose(out[0, 0], np.var(np.sqrt(rng.exponential(0.37, 400_000))), rtol=0.01)
+    out = log_metric(cov, np.zeros(2), np.array([SQRT, 0]), shift=np.array([c, 0.0]))
+    w = np.sqrt(rng.exponential(0.37, 400_000) + c)
+    np.testing.assert_allclose(out[0, 0], np.var(w), rtol=0.01)
+    if c == 0.0:
+        np.testing.assert_allclose(out[0, 0], (1.0 - np.pi / 4.0) * 0.37, rtol=1e-12)
     assert out[0, 1] == out[1, 0] == 0.0 and out[1, 1] == 0.5
-    hi = np.array([0.1, 2.0, 3.0, 10.0, 0.7, np.inf])
-    lo_w, hi_w = bounds_w(np.zeros(6), hi, np.full(6, SQRT))
-    assert np.all(to_x(hi_w[None], np.full(6, SQRT))[0] <= hi) and np.all(lo_w == 0.0)
-    np.testing.assert_allclose(hi_w[:5] ** 2, hi[:5], rtol=1e-15)
+    hi, kind, shift = np.array([0.1, 2.0, 3.0, 10.0, 0.7, np.inf]), np.full(6, SQRT), np.full(6, c)
+    lo_w, hi_w = bounds_w(np.zeros(6), hi, kind, shift)
+    assert np.all(to_x(hi_w[None], kind, shift)[0] <= hi) and np.all(lo_w == 0.0)
+    np.testing.assert_allclose(to_x(hi_w[None], kind, shift)[0][:5], hi[:5], rtol=1e-14)
+    x = rng.exponential(0.37, (5, 6))
+    np.testing.assert_allclose(to_x(to_w(x, kind, shift), kind, shift), x, rtol=1e-12, atol=1e-15)
 
 
-def test_working_coordinates_carry_density_and_gradient():
+@pytest.mark.parametrize("c", [0.0, 0.3])
+def test_working_coordinates_carry_density_and_gradient(c):
     """``in_log`` turns a log-density of x and its gradient into those of w, Jacobian included:
-    central differences of ``F(w) = f(x(w)) + log |dx/dw|`` (written out here: w for log, log 2w
-    for sqrt) match its gradient for linear, log and sqrt coordinates, and a sqrt coordinate at
-    or below 0 has density 0 without a NaN."""
+    central differences of ``F(w) = f(x(w)) + log |dx/dw|`` (written out here: w for log,
+    log 2(w + sqrt c) for sqrt) match its gradient for linear, log and sqrt coordinates, with
+    and without a shift c; without one a sqrt coordinate at or below 0 has density 0 without a
+    NaN."""
     from pavement_mcmc.samplers.coords import LOG, SQRT, in_log, to_x
 
-    kind = np.array([0, LOG, SQRT, SQRT])
+    kind, shift = np.array([0, LOG, SQRT, SQRT]), np.array([0.0, 0.0, c, c])
     a, b = np.array([0.3, -1.2, -0.7, 2.0]), np.array([-0.5, -0.2, -1.5, -0.4])
 
     def f_and_g(x):
         return np.sum(a * x + b * x * x, axis=1), a + 2.0 * b * x
 
     def F(w):
-        x = to_x(w, kind)
-        return f_and_g(x)[0] + w[:, 1] + np.log(2.0 * w[:, 2]) + np.log(2.0 * w[:, 3])
+        x, r = to_x(w, kind, shift), np.sqrt(c)
+        return f_and_g(x)[0] + w[:, 1] + np.log(2.0 * (w[:, 2] + r)) + np.log(2.0 * (w[:, 3] + r))
 
     w = np.array([[0.4, -0.3, 0.8, 0.05], [-1.1, 0.9, 0.2, 1.7]])
-    x = to_x(w, kind)
-    f, g = in_log(*f_and_g(x), w, x, kind)
+    x = to_x(w, kind, shift)
+    np.testing.assert_allclose(x[:, 2:], (w[:, 2:] + np.sqrt(c)) ** 2 - c, rtol=1e-14)
+    f, g = in_log(*f_and_g(x), w, x, kind, shift)
     np.testing.assert_allclose(f, F(w), rtol=1e-14)
     fd = np.zeros_like(w)
     for j in range(4):
@@ -137,6 +150,8 @@ def test_working_coordinates_carry_density_and_gradient():
         e[j] = 1e-6
         fd[:, j] = (F(w + e) - F(w - e)) / 2e-6
     np.testing.assert_allclose(g, fd, rtol=1e-6)
+    if c > 0.0:
+        return
     w0 = np.array([[0.4, -0.3, 0.0, 0.5], [0.4, -0.3, -0.1, 0.5]])
     with np.errstate(all="raise"):
         f0, g0 = in_log(*f_and_g(to_x(w0, kind)), w0, to_x(w0, kind), kind)
@@ -150,15 +165,18 @@ def test_sqrt_coordinates_start_half_a_metric_sd_above_zero():
     post = _near_zero(k_sd=-0.5)
     s = get_sampler("hmc", post, n_chains=16, seed=3, options={"sqrt_at_zero": True})
     s.prepare(laplace=find_map(post))
+    from pavement_mcmc.samplers.coords import to_w
+
     floor = 0.5 * np.sqrt(s.M[0, 0])
-    w0 = np.sqrt(s.theta[:, 0])
+    assert s.shift[0] > 0.0 and np.all(s.shift[1:] == 0.0)
+    w0 = to_w(s.theta[:, s.idx], s.tlog, s.shift)[:, 0]
     assert np.all(w0 >= floor * (1 - 1e-12)), (w0.min(), floor)
     assert np.any(np.isclose(w0, floor, rtol=1e-12))
 
 
 def test_sqrt_coordinates_resume_bit_for_bit():
-    """The coordinate kinds are part of hmc's state: a run stopped inside the adaptation and
-    resumed with sqrt coordinates gives the uninterrupted run's chain bit for bit."""
+    """The coordinate kinds and the sqrt shift are part of hmc's state: a run stopped inside the
+    adaptation and resumed with sqrt coordinates gives the uninterrupted run's chain bit for bit."""
     post = _near_zero(k_sd=-0.5)
     opts = {"sqrt_at_zero": True, "metric_at": 40}
 
@@ -176,7 +194,7 @@ def test_sqrt_coordinates_resume_bit_for_bit():
     run_sampler(b, st_b, ess_target=1e9, max_steps=35, n_adapt=50)
     c = get_sampler("hmc", post, options=opts)
     c.set_state(st_b.state)
-    assert list(c.tlog) == [2, 0, 0]
+    assert list(c.tlog) == [2, 0, 0] and c.shift[0] == a.shift[0] > 0.0
     st_c = MemoryStore.open_append(st_b)
     run_sampler(c, st_c, ess_target=1e9, max_steps=120, n_adapt=50)
     A, B = st_a.read(), st_c.read()

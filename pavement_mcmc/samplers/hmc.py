@@ -41,20 +41,9 @@ against the former single one at step 75 (gradient evaluations, which do not dep
 machine's load; 16 chains, 400 steps after adaptation): Case C 30k instead of 35k evaluations
 to adapt and 60 instead of 70 per unit of the smallest ESS.
 
-Log coordinates (``log_positive``): a parameter bounded below by 0 whose mode is more than
-one Laplace sd above it is moved as ``w = log x`` (target gains the Jacobian ``sum w``, the
-metric by the delta method, :mod:`.coords`; start points drawn in ``w``); the
-others stay linear (a night h at 0 in ``log`` made the step size fall to 0.017, 64 leapfrog
-steps). With a surface layer the Göttingen posterior of h is skewed (the soil feels
-``h / (1 + h R)`` and ``q / (1 + h R)``, so roughly ``log h``): on the 72-h window, 1000 steps
-after adaptation, 177 / 122 / 160 instead of 253 / 209 / 205 gradients per chain per effective
-draw of the slowest parameter (seeds 1 / 2 / 3; the roughness ``||Dh||^2`` tau 5.4 / 4.9 / 4.7
-instead of 12.0 / 12.5 / 10.6 steps). Off by default: on Case C (no layer, h's posterior
-close to Gaussian) it costs 158k / 194k instead of 114k gradients to the stopping rule (seeds
-1 / 2), and in ``log x`` a Gaussian's right tail gets a curvature growing like ``x^2``,
-which a chain started far out there cannot leave at the adapted step size.
-
-Sqrt coordinates (``sqrt_at_zero``, for parameters piled against 0): :mod:`.coords`.
+Working coordinates (``log_positive``: ``log x`` for parameters bounded at 0 whose mode lies
+well above it; ``sqrt_at_zero``: a shifted ``sqrt x`` for those piled against 0), what they
+do and what they cost on the Göttingen window and on Case C: :mod:`.coords`.
 
 A step costs ``n_leapfrog`` gradient evaluations per chain; :attr:`Block.n_evals` counts them
 (each is one solve and one adjoint sweep, or ``2 d + 1`` solves by central differences for models
@@ -81,7 +70,8 @@ _SCALARS = ("log_eps", "log_eps_bar", "hbar", "mu", "k_adapt", "k_da", "n_leapfr
 #: reflections in one drift after which the chain's proposal is rejected (a trajectory caught
 #: in a corner of the bounds, e.g. a parameter piling up at a bound in a refit)
 _MAX_REFLECTIONS = 1000
-_ARRAYS = ("idx", "hcols", "hpos", "L", "f", "g", "loglik", "win_1", "win_2", "tlog")
+_ARRAYS = ("idx", "hcols", "hpos", "L", "f", "g", "loglik", "win_1", "win_2", "tlog",
+           "shift")
 
 
 @dataclass(frozen=True)
@@ -102,8 +92,9 @@ class HMCOptions:
     log_positive : sample ``log x`` instead of ``x`` for every parameter bounded below by 0
         whose mode lies more than one Laplace sd above 0 (h pieces away from 0, a layer's
         resistance); the draws are stored as ``x``. Off by default (see the module docstring).
-    sqrt_at_zero : sample ``sqrt x`` instead of ``x`` for every parameter bounded below by 0
-        whose mode lies within one Laplace sd of 0 (night-time h against their bound).
+    sqrt_at_zero : sample ``sqrt(x + c) - sqrt c`` instead of ``x`` for every parameter bounded
+        below by 0 whose mode lies within one Laplace sd of 0 (night-time h against their bound).
+    sqrt_shift : that ``c`` in units of the parameter's exponential scale at the bound (0: ``sqrt x``).
     """
 
     target_acceptance: float = 0.8
@@ -116,6 +107,7 @@ class HMCOptions:
     metric_windows: int = 2
     log_positive: bool = False
     sqrt_at_zero: bool = False
+    sqrt_shift: float = 0.25
 
 
 class HMCSampler(Sampler):
@@ -166,8 +158,9 @@ class HMCSampler(Sampler):
         at0, above = self.lo[i] == 0.0, mode[i] > np.sqrt(np.diag(cov))
         self.tlog = np.where(self.options.log_positive & at0 & above, LOG,  # coordinate kinds
                              np.where(self.options.sqrt_at_zero & at0 & ~above, SQRT, 0))
+        self.shift = np.where(self.tlog == SQRT, self.options.sqrt_shift * np.sqrt(np.diag(cov)), 0.0)
         self._set_bounds()
-        self._set_metric(log_metric(cov, mode[i], self.tlog))
+        self._set_metric(log_metric(cov, mode[i], self.tlog, self.shift))
         if self.tlog.any():  # over-dispersed around the mode in the working coordinates
             self.theta = self._start_points(mode)
         elif self.marginal:
@@ -181,7 +174,8 @@ class HMCSampler(Sampler):
         self.hbar, self.k_adapt, self.k_da, self.frozen, self.n_metric = 0.0, 0, 0, False, 0
         self.n_leapfrog = self._n_leapfrog(eps0)
         self.win_n, self.win_1, self.win_2 = 0.0, np.zeros(d), np.zeros((d, d))
-        self.f, self.g, self.loglik, self.blobs = self._value_grad_w(to_w(self.theta[:, i], self.tlog))
+        w0 = to_w(self.theta[:, i], self.tlog, self.shift)
+        self.f, self.g, self.loglik, self.blobs = self._value_grad_w(w0)
         self.n_prep_evals += self.n_chains
         self.logp = self._joint_logp(self.theta)
 
@@ -212,10 +206,10 @@ class HMCSampler(Sampler):
         def x_of(w):
             w = np.array(w, float)
             w[:, sq] = np.maximum(np.abs(w[:, sq]), floor)
-            return to_x(w, t)
+            return to_x(w, t, self.shift)
 
         theta = draws_around(self.rng, self.posterior, self.n_chains, mode, i,
-                             to_w(mode[None, i], t)[0], self.L, self.lo[i], self.hi[i], inflate,
+                             to_w(mode[None, i], t, self.shift)[0], self.L, self.lo[i], self.hi[i], inflate,
                              to_x=x_of, clip=2.5)
         if self.marginal:
             theta[:, self.gi] = self.target.draw_gamma(self.rng, theta)
@@ -223,13 +217,13 @@ class HMCSampler(Sampler):
 
     def _set_bounds(self) -> None:
         """The bounds in the working coordinates (:mod:`.coords`)."""
-        self.lo_w, self.hi_w = bounds_w(self.lo[self.idx], self.hi[self.idx], self.tlog)
+        self.lo_w, self.hi_w = bounds_w(self.lo[self.idx], self.hi[self.idx], self.tlog, self.shift)
 
     def _value_grad_w(self, w: np.ndarray):
         """:meth:`_value_grad` in the working coordinates ``w`` (:func:`.coords.in_log`)."""
-        x = to_x(w, self.tlog)
+        x = to_x(w, self.tlog, self.shift)
         f, g, ll, bl = self._value_grad(self._full(x))
-        return (*in_log(f, g, w, x, self.tlog), ll, bl)
+        return (*in_log(f, g, w, x, self.tlog, self.shift), ll, bl)
 
     def _set_metric(self, cov: np.ndarray) -> None:
         self.L = cholesky_of(0.5 * (cov + cov.T))
@@ -302,7 +296,7 @@ class HMCSampler(Sampler):
         """One leapfrog trajectory from the current state; returns the proposal and log alpha."""
         m, d = self.theta.shape[0], self.idx.size
         p0 = self.rng.standard_normal((m, d))
-        x = to_w(self.theta[:, self.idx], self.tlog)
+        x = to_w(self.theta[:, self.idx], self.tlog, self.shift)
         e = eps[:, None]
         p = p0 + 0.5 * e * (self.g @ self.L)
         stuck = np.zeros(m, bool)
@@ -314,7 +308,7 @@ class HMCSampler(Sampler):
         with np.errstate(invalid="ignore", over="ignore"):
             log_a = (f - 0.5 * np.sum(p * p, axis=1)) - (self.f - 0.5 * np.sum(p0 * p0, axis=1))
         log_a = np.where(np.isnan(log_a) | stuck, -np.inf, log_a)
-        return to_x(x, self.tlog), f, g, ll, bl, log_a
+        return to_x(x, self.tlog, self.shift), f, g, ll, bl, log_a
 
     def step(self, n_steps: int, adapt: bool = False) -> Block:
         if not adapt and not self.frozen:
@@ -357,7 +351,7 @@ class HMCSampler(Sampler):
         if o.adapt_metric and self.n_metric < o.metric_windows:
             start = o.metric_skip if self.n_metric == 0 else o.metric_at * 2 ** (self.n_metric - 1)
             if self.k_adapt > start:
-                x = to_w(self.theta[:, self.idx], self.tlog)
+                x = to_w(self.theta[:, self.idx], self.tlog, self.shift)
                 self.win_n += x.shape[0]
                 self.win_1 += x.sum(axis=0)
                 self.win_2 += x.T @ x
@@ -402,8 +396,9 @@ class HMCSampler(Sampler):
             setattr(self, k, extra[k])
         self.k_adapt, self.k_da, self.n_leapfrog = int(self.k_adapt), int(self.k_da), int(self.n_leapfrog)
         self.frozen, self.n_metric = bool(self.frozen), int(self.n_metric)
-        # a run saved before log coordinates existed has no "tlog": every coordinate linear
-        arrays = {"tlog": np.zeros(np.size(arrays["idx"])), **arrays}
+        # a run saved before log (sqrt shift) coordinates has no "tlog" ("shift"): linear (none)
+        none = np.zeros(np.size(arrays["idx"]))
+        arrays = {"tlog": none, "shift": none, **arrays}
         for k in _ARRAYS:
             setattr(self, k, np.array(arrays[k], dtype=float))
         for k in ("idx", "hcols", "hpos"):
