@@ -72,6 +72,37 @@ def test_mcse_ar1() -> None:
     np.testing.assert_allclose(dg.mcse(x), expected, rtol=0.15)
 
 
+def test_mcse_sd_iid_normal_and_heavy_tailed() -> None:
+    """The sd's standard error is sd / sqrt(2 n) for iid normal draws, and twice that,
+    sqrt(2 / n), for iid exponential ones (excess kurtosis 6), where the Gaussian formula
+    sd / sqrt(2 ess) would still say sqrt(1 / (2 n))."""
+    rng = np.random.default_rng(6)
+    n = 20_000
+    normal, expo = rng.standard_normal((5000, 4, 3)), rng.exponential(1.0, (5000, 4, 3))
+    np.testing.assert_allclose(dg.mcse_sd(normal), 1 / np.sqrt(2 * n), rtol=0.1)
+    np.testing.assert_allclose(dg.mcse_sd(expo), np.sqrt(2 / n), rtol=0.15)
+
+
+def test_mcse_sd_matches_the_spread_of_the_sd_over_replicates() -> None:
+    """300 independent AR(1) chains (phi = 0.9, 4000 steps, one per parameter column): the sample
+    sd's scatter over them matches the mean of their ``mcse_sd`` within 15 %, and the
+    theoretical value sqrt(tau_z / (2 n)) with tau_z = (1 + phi^2) / (1 - phi^2) of x^2
+    (about half of x's tau: ``mcse_sd`` must use the squares' own autocorrelation)."""
+    rng = np.random.default_rng(7)
+    phi, n, reps = 0.9, 4000, 300
+    x = np.empty((n, 1, reps))
+    x[0] = rng.standard_normal((1, reps)) / np.sqrt(1 - phi**2)
+    e = rng.standard_normal((n, 1, reps))
+    for t in range(1, n):
+        x[t] = phi * x[t - 1] + e[t]
+    sds = x.reshape(n, reps).std(axis=0, ddof=1)
+    sd = 1 / np.sqrt(1 - phi**2)
+    theory = sd * np.sqrt((1 + phi**2) / (1 - phi**2) / (2 * n))
+    m = dg.mcse_sd(x)
+    np.testing.assert_allclose(np.mean(m), sds.std(ddof=1), rtol=0.15)
+    np.testing.assert_allclose(np.mean(m), theory, rtol=0.1)
+
+
 def test_geweke_iid_is_standard_normal() -> None:
     rng = np.random.default_rng(6)
     # 400 independent replications, one per "parameter", of a 2000-step iid chain.

@@ -269,6 +269,16 @@ def test_paper_priors_pull_case_a_away_from_truth():
     assert not (lo[0] <= truth["kappa"] <= hi[0])  # documents the bias (misspecified h + prior)
 
 
+def _sd_ratio_tol(a: np.ndarray, b: np.ndarray, k: float) -> np.ndarray:
+    """``k`` standard errors of the ratio of two chains' sds (:func:`.diagnostics.mcse_sd`: it
+    sees heavy tails, where the Gaussian ``sd / sqrt(2 ESS)`` does not; Case C's gamma has an
+    excess kurtosis of 1-12 over seeds, from rare visits to smooth h(t) and large gamma)."""
+    def rel(x):
+        return dg.mcse_sd(x) / x.reshape(-1, x.shape[2]).std(0)
+
+    return k * np.sqrt(rel(a) ** 2 + rel(b) ** 2)
+
+
 def test_fast_agrees_with_long_mh_case_a():
     """fast and a long plain MH run agree on Case A's means and sds within Monte Carlo error."""
     pr = _case("caseA")
@@ -284,9 +294,7 @@ def test_fast_agrees_with_long_mh_case_a():
         print(f"{n}: fast {mf[j]:.5g} +- {sf[j]:.3g}  mh {mm[j]:.5g} +- {sm[j]:.3g}  "
               f"z = {(mf[j] - mm[j]) / se[j]:+.2f}")
     assert np.all(np.abs(mf - mm) < 4 * se)
-    # sd of an sd estimate ~ sd / sqrt(2 ESS): allow 4 of those
-    tol = 4 * np.sqrt(1 / (2 * dg.ess(kf)) + 1 / (2 * dg.ess(km)))
-    assert np.all(np.abs(sf / sm - 1) < tol)
+    assert np.all(np.abs(sf / sm - 1) < _sd_ratio_tol(kf, km, 4.0))
 
 
 def test_hmc_agrees_with_the_random_walk_block_sampler_case_c():
@@ -312,7 +320,9 @@ def test_hmc_agrees_with_the_random_walk_block_sampler_case_c():
     print(f"max |z| over {p} parameters: {np.abs(z).max():.2f}")
     # 115 parameters: a 4.5-sigma bound keeps the family-wise false alarm below 0.1 %
     assert np.all(np.abs(z) < 4.5)
-    tol = 4.5 * np.sqrt(1 / (2 * dg.ess(kh)) + 1 / (2 * dg.ess(kb)))
+    tol = _sd_ratio_tol(kh, kb, 4.5)
+    print(f"sd ratio hmc / block: max |ratio - 1| / tol {np.max(np.abs(sh / sb - 1) / tol):.2f}, "
+          f"gamma's tol {tol[pr.space.free.index('gamma')]:.3f}")
     assert np.all(np.abs(sh / sb - 1) < tol)
 
 

@@ -27,6 +27,7 @@ from .autocorr import (
     ess,
     integrated_time,
     mcse,
+    mcse_sd,
 )
 from .burnin import choose_burn_in, is_drifting, trend_z
 from .rhat import split_rhat
@@ -49,6 +50,7 @@ __all__ = [
     "integrated_time",
     "is_drifting",
     "mcse",
+    "mcse_sd",
     "segment_summary",
     "split_rhat",
     "summary",

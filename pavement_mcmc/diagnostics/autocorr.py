@@ -1,4 +1,5 @@
-"""Autocorrelation, integrated autocorrelation time, effective sample size and MCSE."""
+"""Autocorrelation, integrated autocorrelation time, effective sample size and MCSE (of the
+mean and of the sd)."""
 
 from __future__ import annotations
 
@@ -163,6 +164,28 @@ def mcse(x: np.ndarray, c: float = 5) -> np.ndarray:
     x = _as_3d(x)
     sd = x.reshape(-1, x.shape[2]).std(axis=0, ddof=1)
     return sd / np.sqrt(ess(x, c))
+
+
+def mcse_sd(x: np.ndarray, c: float = 5) -> np.ndarray:
+    """Monte Carlo standard error of the posterior sd per parameter.
+
+    From the squared deviations ``z = (x - mean)^2``: the variance is their mean, its standard
+    error ``sd(z) / sqrt(ess(z))``, carried to the sd by the delta method (``/ (2 sd)``), as
+    the ``posterior`` R package's ``mcse_sd`` does. Unlike ``sd / sqrt(2 ess(x))`` (the
+    Gaussian formula) it sees heavy tails (``sd(z)`` grows with the kurtosis: ``sqrt(2 / n)`` of
+    the sd for iid exponential draws against ``sqrt(1 / (2 n))``) and the autocorrelation of
+    ``z`` itself, which can differ from that of ``x``.
+
+    Returns
+    -------
+    ndarray, shape (n_params,)
+    """
+    x = _as_3d(x)
+    flat = x.reshape(-1, x.shape[2])
+    z = (x - flat.mean(axis=0)) ** 2
+    zf = z.reshape(-1, x.shape[2])
+    var = zf.mean(axis=0)
+    return zf.std(axis=0, ddof=1) / np.sqrt(ess(z, c)) / (2.0 * np.sqrt(var))
 
 
 def autocovariance_norm(
