@@ -9,7 +9,9 @@ h(t): only the priors on kappa and C can reveal it.
   which 10.8 and 11.8 from the priors) the entry is *prior-driven* and the verdict says so.
 - Tight, correct priors (1 % at the truth) and h(t) in 1 h pieces: rad_factor 1.15 is ranked
   first (measured S 65-89 on seeds 1-5, fitted factor 1.15-1.18); 0.85 only on 3 of 5 seeds
-  (S 15-30; seed 2: S 8, nothing claimed; seed 3: two_layer wins a look-alike tie). A coarser
+  (S 15-30; seed 2: S 8, nothing claimed; seed 3: two_layer wins a look-alike tie). Under the
+  claim rule (a claim also needs a data part D > 20) 1.15 is claimed on 4 of 5 seeds (seed 5:
+  D 15) and 0.85 on 1 of 5 (seeds 1 and 4: D 10 and 14). A coarser
   h(t) does not help: with 7 or 3 pieces ``finer_h`` ranks first, and radiation_factor then
   scores high on clean data too (it soaks up the h(t) misfit).
 """
@@ -73,19 +75,49 @@ def test_radiation_factor_no_false_claim_with_tight_correct_priors(tmp_path):
 
 @pytest.mark.slow
 @pytest.mark.parametrize("seed", [1, 2, 3, 4, 5])
-def test_radiation_factor_matrix(tmp_path, request, seed):
+def test_radiation_factor_matrix(tmp_path, seed):
+    """Loose priors never claim a radiometer error; tight, correct ones never claim one on
+    clean data."""
     for factor in (0.85, 1.15):  # loose priors: never claimed
         assert_not_claimed(*ranking(tmp_path, factor, seed, "loose"))
-    rk, rad = ranking(tmp_path, 1.15, seed, "tight")  # tight, correct priors: ranked first
-    assert rk.best is rad, rk.verdict
-    rk, rad = ranking(tmp_path, None, seed, "tight")  # and no false claim on clean data
+    rk, rad = ranking(tmp_path, None, seed, "tight")  # no false claim on clean data
     assert rk.best is None, rk.verdict
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("seed", [1, 2, 3, 4, 5])
+def test_radiation_factor_tight_priors_plus_15(tmp_path, request, seed):
+    """Tight, correct priors: a +15 % radiometer error is ranked first and claimed."""
+    if seed == 5:
+        request.applymarker(
+            pytest.mark.xfail(
+                reason="under the claim rule (data part D > 20) +15 % is claimed on 4 of 5 seeds "
+                "(seed 5: S 65 but D 15)",
+                strict=False,
+            )
+        )
+    rk, rad = ranking(tmp_path, 1.15, seed, "tight")
+    assert rk.best is rad, rk.verdict
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("seed", [1, 2, 3, 4, 5])
+def test_radiation_factor_tight_priors_minus_15(tmp_path, request, seed):
+    """Tight, correct priors: a -15 % radiometer error is ranked first and claimed."""
     if seed in (2, 3):
         request.applymarker(
             pytest.mark.xfail(
-                reason="rad_factor 0.85 with tight priors: ranked first on 3 of 5 seeds "
+                reason="rad_factor 0.85 with tight priors: not ranked first on seeds 2 and 3 "
                 "(seed 2: S 8; seed 3: two_layer wins a look-alike tie)",
                 strict=True,
+            )
+        )
+    if seed in (1, 4):
+        request.applymarker(
+            pytest.mark.xfail(
+                reason="under the claim rule (data part D > 20) not claimed (seed 1: S 15, D 10; "
+                "seed 4: S 20, D 14, below surface_layer's S 24): claimed on 1 of 5 seeds",
+                strict=False,
             )
         )
     rk, rad = ranking(tmp_path, 0.85, seed, "tight")
