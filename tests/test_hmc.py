@@ -112,12 +112,19 @@ def test_sqrt_coordinates_metric_and_upper_bound(c):
     if c == 0.0:
         np.testing.assert_allclose(out[0, 0], (1.0 - np.pi / 4.0) * 0.37, rtol=1e-12)
     assert out[0, 1] == out[1, 0] == 0.0 and out[1, 1] == 0.5
-    hi, kind, shift = np.array([0.1, 2.0, 3.0, 10.0, 0.7, np.inf]), np.full(6, SQRT), np.full(6, c)
-    lo_w, hi_w = bounds_w(np.zeros(6), hi, kind, shift)
+    hi = np.array([0.1, 2.0, 3.0, 10.0, 0.7, np.inf])
+    kind, shift = np.full(hi.size, SQRT), np.full(hi.size, c)
+    lo_w, hi_w = bounds_w(np.zeros(hi.size), hi, kind, shift)
     assert np.all(to_x(hi_w[None], kind, shift)[0] <= hi) and np.all(lo_w == 0.0)
-    np.testing.assert_allclose(to_x(hi_w[None], kind, shift)[0][:5], hi[:5], rtol=1e-14)
-    x = rng.exponential(0.37, (5, 6))
-    np.testing.assert_allclose(to_x(to_w(x, kind, shift), kind, shift), x, rtol=1e-12, atol=1e-15)
+    np.testing.assert_allclose(to_x(hi_w[None], kind, shift)[0][:-1], hi[:-1], rtol=1e-14)
+    assert hi_w[-1] == np.inf
+    # bounds far below c: back within the rounding of (w + sqrt c)^2 - c, about 1e-16 c
+    tiny = np.array([1e-4, 1e-3, 0.01, 3e-7]) * max(c, 1e-300)
+    _, hi_t = bounds_w(np.zeros(4), tiny, kind[:4], shift[:4])
+    assert np.all(to_x(hi_t[None], kind[:4], shift[:4])[0] <= tiny + 4e-16 * c)
+    x = rng.exponential(0.37, (5, hi.size)) * np.logspace(-12, 0, hi.size)
+    back = to_x(to_w(x, kind, shift), kind, shift)
+    assert np.all(np.abs(back - x) <= 1e-14 * x + 4e-16 * c)
 
 
 @pytest.mark.parametrize("c", [0.0, 0.3])
@@ -435,3 +442,9 @@ def test_the_adaptation_lasts_until_the_last_metric_window_and_50_steps_after():
     s.prepare(laplace=find_map(post))
     res = run_sampler(s, _store(post, s.n_chains), ess_target=1e9, max_steps=260)
     assert res.n_adapt_rows == 250 and s.n_metric == 3
+
+
+def test_negative_sqrt_shift_is_refused():
+    """A negative shift would make sqrt(x + c) NaN near 0: refused when the sampler is made."""
+    with pytest.raises(ValueError, match="sqrt_shift must be >= 0, got -0.1"):
+        get_sampler("hmc", _near_zero(k_sd=-0.5), options={"sqrt_at_zero": True, "sqrt_shift": -0.1})

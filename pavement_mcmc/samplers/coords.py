@@ -86,7 +86,10 @@ def bounds_w(lo: np.ndarray, hi: np.ndarray, kind: np.ndarray,
              shift=None) -> tuple[np.ndarray, np.ndarray]:
     """The bounds ``(lo, hi)`` (d,) in the working coordinates (``LOG`` and ``SQRT`` ones have
     ``lo = 0``); a finite upper one is the largest float that maps back to at most ``hi``
-    (``exp(log hi)`` rounds above ``hi`` for about half of all values, e.g. 0.1 and 3)."""
+    (``exp(log hi)`` rounds above ``hi`` for about half of all values, e.g. 0.1 and 3), within
+    8 steps of one ulp: for a shifted sqrt with ``hi`` far below ``c``, ``(w + sqrt c)^2 - c``
+    rounds with an error of about ``1e-16 c``, and ``hi`` can come back up to that much above
+    (3e-13 relative for ``hi = c / 1000``; the bounds of h are hundreds of times ``c``)."""
     lo, hi = np.array(lo, float), np.array(hi, float)
     lg, sq = _masks(kind)
     r = _root(shift, sq)

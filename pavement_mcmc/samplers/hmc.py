@@ -33,7 +33,7 @@ doubling windows (as Stan does): at adaptation step ``metric_at`` (default 50) f
 chains since step ``metric_skip`` (10), then at ``2 metric_at`` from those since (shrunk 10 %
 towards its diagonal; ``adapt_metric = False`` keeps the Laplace one); after each the dual
 averaging starts again for the new metric; ``metric_windows = 3`` adds one at ``4 metric_at``
-(the Göttingen 72-h window's ``runs/grass.toml`` uses it: 196k instead of 212k gradients for
+(the Göttingen 72-h window's ``runs/grass.toml`` uses it: 196k instead of 229k gradients for
 the base fit, 447-512k instead of 643-698k with ``surface_layer``, single seeds; on Case C it
 costs 167k instead of 114k). The loop adapts until the last window's end plus 50 steps
 (:meth:`HMCSampler.adapt_length`: 150 steps for two windows, 250 for three). Two windows
@@ -91,7 +91,7 @@ class HMCOptions:
         those after ``metric_skip``).
     log_positive : sample ``log x`` instead of ``x`` for every parameter bounded below by 0
         whose mode lies more than one Laplace sd above 0 (h pieces away from 0, a layer's
-        resistance); the draws are stored as ``x``. Off by default (see the module docstring).
+        resistance); the draws are stored as ``x``. Off by default (see :mod:`.coords`).
     sqrt_at_zero : sample ``sqrt(x + c) - sqrt c`` instead of ``x`` for every parameter bounded
         below by 0 whose mode lies within one Laplace sd of 0 (night-time h against their bound).
     sqrt_shift : that ``c`` in units of the parameter's exponential scale at the bound (0: ``sqrt x``).
@@ -108,6 +108,10 @@ class HMCOptions:
     log_positive: bool = False
     sqrt_at_zero: bool = False
     sqrt_shift: float = 0.25
+
+    def __post_init__(self):
+        if not self.sqrt_shift >= 0.0:
+            raise ValueError(f"hmc option sqrt_shift must be >= 0, got {self.sqrt_shift}")
 
 
 class HMCSampler(Sampler):
