@@ -47,88 +47,105 @@ LOG, SQRT = 1, 2
 _TINY = 1e-300
 
 
-def _masks(kind: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    k = np.asarray(kind)
-    return k == LOG, k == SQRT
+class Coords:
+    """The working coordinates of ``d`` parameters: their kinds (d,) and the ``c`` (d,) of the
+    sqrt ones (``shift``, default 0), with the masks and ``sqrt c`` worked out once (``hmc``
+    maps every leapfrog position through them)."""
 
+    def __init__(self, kind: np.ndarray, shift=None):
+        self.kind = np.asarray(kind)
+        self.shift = shift
+        self.linear = not np.any(self.kind)
+        self.lg, self.sq = self.kind == LOG, self.kind == SQRT
+        self.r = 0.0 if shift is None else np.sqrt(np.asarray(shift, float)[self.sq])
 
-def _root(shift, sq: np.ndarray):
-    """``sqrt c`` of the sqrt coordinates (0 without a shift)."""
-    return 0.0 if shift is None else np.sqrt(np.asarray(shift, float)[sq])
+    def to_w(self, x: np.ndarray) -> np.ndarray:
+        """Working coordinates (n, d) of points ``x`` (n, d) (``x`` itself if all are linear)."""
+        if self.linear:  # all linear (hmc's default): no copy, no work
+            return x
+        lg, sq, r = self.lg, self.sq, self.r
+        w = np.array(x, float)
+        w[:, lg] = np.log(np.maximum(w[:, lg], _TINY))
+        w[:, sq] = np.sqrt(np.maximum(w[:, sq], 0.0) + r * r) - r
+        return w
+
+    def to_x(self, w: np.ndarray) -> np.ndarray:
+        """Points ``x`` (n, d) of working coordinates ``w`` (n, d) (``w`` itself if all are
+        linear)."""
+        if self.linear:
+            return w
+        lg, sq, r = self.lg, self.sq, self.r
+        x = np.array(w, float)
+        x[:, lg] = np.exp(w[:, lg])
+        x[:, sq] = (w[:, sq] + r) ** 2 - r * r
+        return x
+
+    def bounds(self, lo: np.ndarray, hi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The bounds ``(lo, hi)`` (d,) in the working coordinates (``LOG`` and ``SQRT`` ones
+        have ``lo = 0``); a finite upper one is the largest float that maps back to at most
+        ``hi`` (``exp(log hi)`` rounds above ``hi`` for about half of all values, e.g. 0.1 and
+        3), within 8 steps of one ulp: for a shifted sqrt with ``hi`` far below ``c``,
+        ``(w + sqrt c)^2 - c`` rounds with an error of about ``1e-16 c``, and ``hi`` can come
+        back up to that much above (3e-13 relative for ``hi = c / 1000``; the bounds of h are
+        hundreds of times ``c``)."""
+        lo, hi = np.array(lo, float), np.array(hi, float)
+        r = self.r
+        for mask, fwd, back, low in ((self.lg, np.log, np.exp, -np.inf),
+                                     (self.sq, lambda v: np.sqrt(v + r * r) - r,
+                                      lambda v: (v + r) ** 2 - r * r, 0.0)):
+            top = hi[mask]
+            with np.errstate(divide="ignore", invalid="ignore"):
+                w = fwd(top)
+            for _ in range(8):
+                over = back(w) > top
+                if not over.any():
+                    break
+                w[over] = np.nextafter(w[over], -np.inf)
+            lo[mask], hi[mask] = low, w
+        return lo, hi
+
+    def in_log(self, f: np.ndarray, g: np.ndarray, w: np.ndarray, x: np.ndarray):
+        """Log-density ``f`` (n,) and its gradient ``g`` (n, d) in ``x`` carried to ``w``
+        (``g`` is changed in place; rows with a non-finite ``f`` get a zero gradient)."""
+        if self.linear:
+            return f, g
+        lg, sq = self.lg, self.sq
+        if lg.any():
+            f = f + np.sum(w[:, lg], axis=1)
+        if sq.any():  # log 2(w + sqrt c), -inf at (and below) w = -sqrt c
+            ws = w[:, sq] + self.r
+            with np.errstate(divide="ignore", invalid="ignore"):
+                f = f + np.sum(np.where(ws > 0.0, np.log(2.0 * ws), -np.inf), axis=1)
+        ok = np.isfinite(f)[:, None]
+        if lg.any():
+            g[:, lg] = np.where(ok, g[:, lg] * x[:, lg] + 1.0, 0.0)
+        if sq.any():
+            with np.errstate(divide="ignore", invalid="ignore"):
+                g[:, sq] = np.where(ok, 2.0 * ws * g[:, sq] + 1.0 / ws, 0.0)
+            g[:] = np.where(ok, g, 0.0)  # a sqrt coordinate on 0 makes the density 0: no gradient
+        return f, g
 
 
 def to_w(x: np.ndarray, kind: np.ndarray, shift=None) -> np.ndarray:
-    """Working coordinates (n, d) of points ``x`` (n, d) (``x`` itself if all are linear);
-    ``shift``: the ``c`` (d,) of the sqrt coordinates (default 0)."""
-    if not np.any(kind):  # all linear (hmc's default): no copy, no work
-        return x
-    lg, sq = _masks(kind)
-    r = _root(shift, sq)
-    w = np.array(x, float)
-    w[:, lg] = np.log(np.maximum(w[:, lg], _TINY))
-    w[:, sq] = np.sqrt(np.maximum(w[:, sq], 0.0) + r * r) - r
-    return w
+    """:meth:`Coords.to_w` (``shift``: the ``c`` (d,) of the sqrt coordinates, default 0)."""
+    return Coords(kind, shift).to_w(x)
 
 
 def to_x(w: np.ndarray, kind: np.ndarray, shift=None) -> np.ndarray:
-    """Points ``x`` (n, d) of working coordinates ``w`` (n, d) (``w`` itself if all are linear)."""
-    if not np.any(kind):
-        return w
-    lg, sq = _masks(kind)
-    r = _root(shift, sq)
-    x = np.array(w, float)
-    x[:, lg] = np.exp(w[:, lg])
-    x[:, sq] = (w[:, sq] + r) ** 2 - r * r
-    return x
+    """:meth:`Coords.to_x`."""
+    return Coords(kind, shift).to_x(w)
 
 
 def bounds_w(lo: np.ndarray, hi: np.ndarray, kind: np.ndarray,
              shift=None) -> tuple[np.ndarray, np.ndarray]:
-    """The bounds ``(lo, hi)`` (d,) in the working coordinates (``LOG`` and ``SQRT`` ones have
-    ``lo = 0``); a finite upper one is the largest float that maps back to at most ``hi``
-    (``exp(log hi)`` rounds above ``hi`` for about half of all values, e.g. 0.1 and 3), within
-    8 steps of one ulp: for a shifted sqrt with ``hi`` far below ``c``, ``(w + sqrt c)^2 - c``
-    rounds with an error of about ``1e-16 c``, and ``hi`` can come back up to that much above
-    (3e-13 relative for ``hi = c / 1000``; the bounds of h are hundreds of times ``c``)."""
-    lo, hi = np.array(lo, float), np.array(hi, float)
-    lg, sq = _masks(kind)
-    r = _root(shift, sq)
-    for mask, fwd, back, low in ((lg, np.log, np.exp, -np.inf),
-                                 (sq, lambda v: np.sqrt(v + r * r) - r,
-                                  lambda v: (v + r) ** 2 - r * r, 0.0)):
-        top = hi[mask]
-        with np.errstate(divide="ignore", invalid="ignore"):
-            w = fwd(top)
-        for _ in range(8):
-            over = back(w) > top
-            if not over.any():
-                break
-            w[over] = np.nextafter(w[over], -np.inf)
-        lo[mask], hi[mask] = low, w
-    return lo, hi
+    """:meth:`Coords.bounds`."""
+    return Coords(kind, shift).bounds(lo, hi)
 
 
 def in_log(f: np.ndarray, g: np.ndarray, w: np.ndarray, x: np.ndarray, kind: np.ndarray,
            shift=None):
-    """Log-density ``f`` (n,) and its gradient ``g`` (n, d) in ``x`` carried to ``w``
-    (``g`` is changed in place; rows with a non-finite ``f`` get a zero gradient)."""
-    if not np.any(kind):
-        return f, g
-    lg, sq = _masks(kind)
-    if lg.any():
-        f = f + np.sum(w[:, lg], axis=1)
-    if sq.any():  # log 2(w + sqrt c), -inf at (and below) w = -sqrt c
-        ws = w[:, sq] + _root(shift, sq)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            f = f + np.sum(np.where(ws > 0.0, np.log(2.0 * ws), -np.inf), axis=1)
-    ok = np.isfinite(f)[:, None]
-    if lg.any():
-        g[:, lg] = np.where(ok, g[:, lg] * x[:, lg] + 1.0, 0.0)
-    if sq.any():
-        with np.errstate(divide="ignore", invalid="ignore"):
-            g[:, sq] = np.where(ok, 2.0 * ws * g[:, sq] + 1.0 / ws, 0.0)
-        g[:] = np.where(ok, g, 0.0)  # a sqrt coordinate on 0 makes the density 0: no gradient
-    return f, g
+    """:meth:`Coords.in_log`."""
+    return Coords(kind, shift).in_log(f, g, w, x)
 
 
 def log_metric(cov: np.ndarray, x: np.ndarray, kind: np.ndarray, shift=None) -> np.ndarray:
@@ -142,7 +159,8 @@ def log_metric(cov: np.ndarray, x: np.ndarray, kind: np.ndarray, shift=None) -> 
     and so the variance ``s + c`` minus its square (``(1 - pi/4) s`` for ``c = 0``): that, and
     no correlations.
     """
-    lg, sq = _masks(kind)
+    co = Coords(kind, shift)
+    lg, sq = co.lg, co.sq
     d = np.where(lg & (x > 0.0), x, 1.0)
     s = np.sqrt(np.diag(cov)[sq])
     c = np.zeros_like(s) if shift is None else np.asarray(shift, float)[sq]

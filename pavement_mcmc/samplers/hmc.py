@@ -59,7 +59,7 @@ import numpy as np
 from ..posterior.map import find_map
 from ..posterior.marginal import gmrf_of
 from .base import Block, Sampler, start_points
-from .coords import LOG, SQRT, bounds_w, in_log, log_metric, to_w, to_x
+from .coords import LOG, SQRT, Coords, log_metric
 from .reflect import reflect_drift
 from .target import MarginalTarget, bounded_laplace_cov, cholesky_of, draws_around
 
@@ -163,7 +163,7 @@ class HMCSampler(Sampler):
         self.tlog = np.where(self.options.log_positive & at0 & above, LOG,  # coordinate kinds
                              np.where(self.options.sqrt_at_zero & at0 & ~above, SQRT, 0))
         self.shift = np.where(self.tlog == SQRT, self.options.sqrt_shift * np.sqrt(np.diag(cov)), 0.0)
-        self._set_bounds()
+        self._set_coords()
         self._set_metric(log_metric(cov, mode[i], self.tlog, self.shift))
         if self.tlog.any():  # over-dispersed around the mode in the working coordinates
             self.theta = self._start_points(mode)
@@ -178,8 +178,7 @@ class HMCSampler(Sampler):
         self.hbar, self.k_adapt, self.k_da, self.frozen, self.n_metric = 0.0, 0, 0, False, 0
         self.n_leapfrog = self._n_leapfrog(eps0)
         self.win_n, self.win_1, self.win_2 = 0.0, np.zeros(d), np.zeros((d, d))
-        w0 = to_w(self.theta[:, i], self.tlog, self.shift)
-        self.f, self.g, self.loglik, self.blobs = self._value_grad_w(w0)
+        self.f, self.g, self.loglik, self.blobs = self._value_grad_w(self.coords.to_w(self.theta[:, i]))
         self.n_prep_evals += self.n_chains
         self.logp = self._joint_logp(self.theta)
 
@@ -210,24 +209,25 @@ class HMCSampler(Sampler):
         def x_of(w):
             w = np.array(w, float)
             w[:, sq] = np.maximum(np.abs(w[:, sq]), floor)
-            return to_x(w, t, self.shift)
+            return self.coords.to_x(w)
 
         theta = draws_around(self.rng, self.posterior, self.n_chains, mode, i,
-                             to_w(mode[None, i], t, self.shift)[0], self.L, self.lo[i], self.hi[i], inflate,
+                             self.coords.to_w(mode[None, i])[0], self.L, self.lo[i], self.hi[i], inflate,
                              to_x=x_of, clip=2.5)
         if self.marginal:
             theta[:, self.gi] = self.target.draw_gamma(self.rng, theta)
         return theta
 
-    def _set_bounds(self) -> None:
-        """The bounds in the working coordinates (:mod:`.coords`)."""
-        self.lo_w, self.hi_w = bounds_w(self.lo[self.idx], self.hi[self.idx], self.tlog, self.shift)
+    def _set_coords(self) -> None:
+        """The working coordinates of the kinds and shifts, and the bounds in them."""
+        self.coords = Coords(self.tlog, self.shift)
+        self.lo_w, self.hi_w = self.coords.bounds(self.lo[self.idx], self.hi[self.idx])
 
     def _value_grad_w(self, w: np.ndarray):
-        """:meth:`_value_grad` in the working coordinates ``w`` (:func:`.coords.in_log`)."""
-        x = to_x(w, self.tlog, self.shift)
+        """:meth:`_value_grad` in the working coordinates ``w`` (:meth:`.coords.Coords.in_log`)."""
+        x = self.coords.to_x(w)
         f, g, ll, bl = self._value_grad(self._full(x))
-        return (*in_log(f, g, w, x, self.tlog, self.shift), ll, bl)
+        return (*self.coords.in_log(f, g, w, x), ll, bl)
 
     def _set_metric(self, cov: np.ndarray) -> None:
         self.L = cholesky_of(0.5 * (cov + cov.T))
@@ -300,7 +300,7 @@ class HMCSampler(Sampler):
         """One leapfrog trajectory from the current state; returns the proposal and log alpha."""
         m, d = self.theta.shape[0], self.idx.size
         p0 = self.rng.standard_normal((m, d))
-        x = to_w(self.theta[:, self.idx], self.tlog, self.shift)
+        x = self.coords.to_w(self.theta[:, self.idx])
         e = eps[:, None]
         p = p0 + 0.5 * e * (self.g @ self.L)
         stuck = np.zeros(m, bool)
@@ -312,7 +312,7 @@ class HMCSampler(Sampler):
         with np.errstate(invalid="ignore", over="ignore"):
             log_a = (f - 0.5 * np.sum(p * p, axis=1)) - (self.f - 0.5 * np.sum(p0 * p0, axis=1))
         log_a = np.where(np.isnan(log_a) | stuck, -np.inf, log_a)
-        return to_x(x, self.tlog, self.shift), f, g, ll, bl, log_a
+        return self.coords.to_x(x), f, g, ll, bl, log_a
 
     def step(self, n_steps: int, adapt: bool = False) -> Block:
         if not adapt and not self.frozen:
@@ -355,7 +355,7 @@ class HMCSampler(Sampler):
         if o.adapt_metric and self.n_metric < o.metric_windows:
             start = o.metric_skip if self.n_metric == 0 else o.metric_at * 2 ** (self.n_metric - 1)
             if self.k_adapt > start:
-                x = to_w(self.theta[:, self.idx], self.tlog, self.shift)
+                x = self.coords.to_w(self.theta[:, self.idx])
                 self.win_n += x.shape[0]
                 self.win_1 += x.sum(axis=0)
                 self.win_2 += x.T @ x
@@ -410,6 +410,6 @@ class HMCSampler(Sampler):
         self.tlog = self.tlog.astype(int)
         self.M = self.L @ self.L.T
         self.lo, self.hi = self.posterior.space.bounds()
-        self._set_bounds()
+        self._set_coords()
         if self.marginal:
             self.target = MarginalTarget.restored(self.posterior, self.idx, self.hcols, self.gi)
