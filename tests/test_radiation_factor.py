@@ -84,41 +84,29 @@ def test_radiation_factor_matrix(tmp_path, seed):
     assert rk.best is None, rk.verdict
 
 
-@pytest.mark.slow
-@pytest.mark.parametrize("seed", [1, 2, 3, 4, 5])
-def test_radiation_factor_tight_priors_plus_15(tmp_path, request, seed):
-    """Tight, correct priors: a +15 % radiometer error is ranked first and claimed."""
-    if seed == 5:
-        request.applymarker(
-            pytest.mark.xfail(
-                reason="under the claim rule (data part D > 20) +15 % is claimed on 4 of 5 seeds "
-                "(seed 5: S 65 but D 15)",
-                strict=False,
-            )
-        )
-    rk, rad = ranking(tmp_path, 1.15, seed, "tight")
-    assert rk.best is rad, rk.verdict
+def _miss(reason: str, strict: bool = False):
+    return pytest.mark.xfail(reason=reason, strict=strict)
+
+
+_RULE = "under the claim rule (data part D > 20) "
+_TIGHT_CELLS = [
+    *[(1.15, seed) for seed in (1, 2, 3, 4)],
+    pytest.param(1.15, 5, marks=_miss(_RULE + "+15 % is claimed on 4 of 5 seeds (seed 5: S 65 but "
+                                      "D 15)")),
+    pytest.param(0.85, 1, marks=_miss(_RULE + "not claimed (S 15, D 10): -15 % is claimed on 1 of "
+                                      "5 seeds")),
+    *[pytest.param(0.85, seed, marks=_miss("rad_factor 0.85 with tight priors: not ranked first on "
+                                           "seeds 2 and 3 (seed 2: S 8; seed 3: two_layer wins a "
+                                           "look-alike tie)", strict=True)) for seed in (2, 3)],
+    pytest.param(0.85, 4, marks=_miss(_RULE + "not claimed (S 20, D 14, below surface_layer's S "
+                                      "24): -15 % is claimed on 1 of 5 seeds")),
+    (0.85, 5),
+]
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("seed", [1, 2, 3, 4, 5])
-def test_radiation_factor_tight_priors_minus_15(tmp_path, request, seed):
-    """Tight, correct priors: a -15 % radiometer error is ranked first and claimed."""
-    if seed in (2, 3):
-        request.applymarker(
-            pytest.mark.xfail(
-                reason="rad_factor 0.85 with tight priors: not ranked first on seeds 2 and 3 "
-                "(seed 2: S 8; seed 3: two_layer wins a look-alike tie)",
-                strict=True,
-            )
-        )
-    if seed in (1, 4):
-        request.applymarker(
-            pytest.mark.xfail(
-                reason="under the claim rule (data part D > 20) not claimed (seed 1: S 15, D 10; "
-                "seed 4: S 20, D 14, below surface_layer's S 24): claimed on 1 of 5 seeds",
-                strict=False,
-            )
-        )
-    rk, rad = ranking(tmp_path, 0.85, seed, "tight")
+@pytest.mark.parametrize("factor, seed", _TIGHT_CELLS)
+def test_radiation_factor_tight_priors(tmp_path, factor, seed):
+    """Tight, correct priors: a +-15 % radiometer error is ranked first and claimed."""
+    rk, rad = ranking(tmp_path, factor, seed, "tight")
     assert rk.best is rad, rk.verdict
