@@ -346,3 +346,26 @@ def test_kill_9_then_read_and_resume(tmp_path) -> None:
     assert final.n_saved == run.n_saved + 21
     check_consistent(final)
     assert final.meta["created"] == run.meta["created"]
+
+
+@pytest.mark.skipif(not Path("/proc/self/stat").exists(), reason="needs Linux /proc")
+def test_a_zombie_writer_is_not_alive() -> None:
+    """A writer that has exited but is not yet reaped (a zombie) holds no file: its store is not
+    busy. kill(pid, 0) alone still finds it (a killed batch's orphaned Dask worker stays a zombie
+    for about a second here, and test_batch's rerun once found its unit's store busy)."""
+    from pavement_mcmc.storage.hdf5 import _pid_alive
+
+    live = subprocess.Popen([sys.executable, "-c", "import time; time.sleep(30)"])
+    dead = subprocess.Popen([sys.executable, "-c", "pass"])
+    try:
+        t0 = time.time()
+        while open(f"/proc/{dead.pid}/stat").read().rsplit(")", 1)[1].split()[0] != "Z":
+            assert time.time() - t0 < 20, "the child did not exit"
+            time.sleep(0.01)
+        os.kill(dead.pid, 0)  # still there for kill(pid, 0)
+        assert not _pid_alive(dead.pid)
+        assert _pid_alive(live.pid) and _pid_alive(os.getpid())
+    finally:
+        live.kill()
+        live.wait()
+        dead.wait()

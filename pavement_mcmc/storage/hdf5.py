@@ -263,6 +263,10 @@ class HDF5Store(Store):
 
 
 def _pid_alive(pid: int) -> bool:
+    """Whether process ``pid`` still runs. A zombie does not: it has exited and holds no file,
+    but ``kill(pid, 0)`` still finds it until its parent reaps it (a killed batch's Dask worker,
+    orphaned, stays a zombie for about a second here before init reaps it; a batch run again
+    at once found its store "being written" by it, tests/test_batch.py)."""
     if pid <= 0:
         return False
     try:
@@ -270,8 +274,13 @@ def _pid_alive(pid: int) -> bool:
     except ProcessLookupError:
         return False
     except PermissionError:
+        pass
+    try:  # Linux: the state letter after the command name in /proc/<pid>/stat
+        with open(f"/proc/{pid}/stat", encoding="ascii", errors="replace") as fh:
+            state = fh.read().rsplit(")", 1)[1].split()[0]
+    except (OSError, IndexError):
         return True
-    return True
+    return state not in ("Z", "X")
 
 
 def read_run(path: str | os.PathLike) -> RunData:
