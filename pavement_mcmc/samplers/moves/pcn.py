@@ -165,7 +165,8 @@ class LaplacePCN(Move):
         sampler.theta = np.where(acc[:, None], prop, theta)
         sampler.logp = np.where(acc, lp, sampler.logp)
         sampler.blobs = np.where(acc[:, None], bl, sampler.blobs)
-        self.loglik = np.where(acc, lp - lprior_p, self.loglik)
+        with np.errstate(invalid="ignore"):  # -inf - -inf outside the bounds: never accepted
+            self.loglik = np.where(acc, lp - lprior_p, self.loglik)
         if self.gi is not None:
             sampler.theta[:, self.gi] = draw_gamma(rng, space, sampler.theta, self.gi, self.hcols)
             sampler.logp = self.loglik + space.log_prior(sampler.theta)
