@@ -9,7 +9,7 @@ export OMP_NUM_THREADS ?= 1
 export OPENBLAS_NUM_THREADS ?= 1
 export MKL_NUM_THREADS ?= 1
 
-.PHONY: help install test validate bench caseA caseB caseC cases lint clean
+.PHONY: help install chromium test validate bench caseA caseB caseC cases lint clean
 
 help:
 	@echo "make caseA|caseB|caseC  run the paper's cases on the shipped data -> runs/caseX/"
@@ -17,6 +17,7 @@ help:
 	@echo "make validate           slow validation runs (coverage, calibration, hidden effects)"
 	@echo "make bench              solver and sampler benchmarks (figures and ratios)"
 	@echo "make lint               ruff"
+	@echo "make chromium           headless chromium for the report's browser test (apt-get, as root)"
 
 # No stamp: the venv is missing or its set-up never finished (one interrupted during pip's own
 # upgrade cannot install any more), so it is made afresh. A stamp older than pyproject.toml:
@@ -30,7 +31,14 @@ $(STAMP): pyproject.toml
 
 install: $(STAMP)
 
-test: $(STAMP)
+# the report's browser test (tests/test_report_browser.py) needs a headless chromium: Debian's
+# is installed where apt-get can (as root); elsewhere that test skips, saying why
+chromium:
+	@command -v chromium >/dev/null 2>&1 || { [ "$$(id -u)" = 0 ] && command -v apt-get >/dev/null \
+	  && apt-get update -q && DEBIAN_FRONTEND=noninteractive apt-get install -y -q chromium; } \
+	  || echo "chromium not installed: the browser test of the HTML report will skip"
+
+test: $(STAMP) chromium
 	$(BIN)/python -m pytest -q
 
 validate: $(STAMP)

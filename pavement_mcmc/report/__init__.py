@@ -94,9 +94,11 @@ def render(view: RunView, sections: list[tuple[str, SectionBuilder]], dpi: int =
                 f"{a.trend_z:.2f} ({'drifting' if a.drifting else 'no significant drift'}).</p>")
     section("Convergence verdict", verdict + _plausibility_box(view))
     section("Posterior statistics", _stats_table(view))
+    r = a.rule  # the run's own stopping rule (result.json), which the assessment applied
     section("Diagnostics", _diag_table(view) + (
-        "<p class=cap>A parameter passes if the kept chain is ≥ 50 IACT long, ESS ≥ 100, "
-        "split-R̂ < 1.1 and |Geweke z| < 1.96 (first 10 % vs last 50 %; the relative difference "
+        f"<p class=cap>A parameter passes if the kept chain is ≥ {r.tau_factor:g} IACT long, "
+        f"ESS ≥ {r.ess_min:g}, split-R̂ < {r.rhat_max:g} (the run's stopping rule) and "
+        "|Geweke z| < 1.96 (first 10 % vs last 50 %; the relative difference "
         f"is the paper's). Note: {esc(chains_note(run.meta.get('sampler', '')))}</p>"))
     for title, build, caption in _figures(view, n_draws):
         try:
