@@ -37,6 +37,7 @@ from pathlib import Path
 
 from .. import __version__
 from ..diagnostics.assessment import chains_note
+from ..diagnostics.stopping import StoppingRule
 from ..runs.tables import plausibility
 from ..runs.view import RunView
 from .builtin import _diag_table, _figures, _stats_table, _urban_section
@@ -62,11 +63,20 @@ def _plausibility_box(view: RunView) -> str:
                    f"{html.escape(f.text())}</div>" for f in found)
 
 
+def _diag_caption(rule: StoppingRule, sampler: str) -> str:
+    """The diagnostics table's caption: the run's own stopping rule, and Geweke's check."""
+    return ("<p class=cap>" + html.escape(
+        f"A parameter passes if the kept chain is ≥ {rule.min_tau_lengths:g} IACT long, ESS ≥ "
+        f"{rule.ess_target:g} and split-R̂ < {rule.rhat_max:g} (the stopping rule this run was "
+        "held to) and |Geweke z| < 1.96 (first 10 % vs last 50 %; the relative difference is the "
+        f"paper's). Note: {chains_note(sampler, rule)}") + "</p>")
+
+
 def build_report(view: RunView, out: str | Path | None = None, dpi: int = 80,
                  n_draws: int = 100) -> Path:
     """Write the run's self-contained HTML report; return its path (default
     ``<run>/report.html``)."""
-    out = Path(out) if out else view.path / "report.html"
+    out = Path(out) if out else view.folder.report
     doc = render(view, registered_sections(), dpi=dpi, n_draws=n_draws)
     out.write_text(doc, encoding="utf-8")
     return out
@@ -94,10 +104,7 @@ def render(view: RunView, sections: list[tuple[str, SectionBuilder]], dpi: int =
                 f"{a.trend_z:.2f} ({'drifting' if a.drifting else 'no significant drift'}).</p>")
     section("Convergence verdict", verdict + _plausibility_box(view))
     section("Posterior statistics", _stats_table(view))
-    section("Diagnostics", _diag_table(view) + (
-        "<p class=cap>A parameter passes if the kept chain is ≥ 50 IACT long, ESS ≥ 100, "
-        "split-R̂ < 1.1 and |Geweke z| < 1.96 (first 10 % vs last 50 %; the relative difference "
-        f"is the paper's). Note: {esc(chains_note(run.meta.get('sampler', '')))}</p>"))
+    section("Diagnostics", _diag_table(view) + _diag_caption(a.rule, run.meta.get("sampler", "")))
     for title, build, caption in _figures(view, n_draws):
         try:
             content = _img(build(), dpi, title)
@@ -127,7 +134,7 @@ def render(view: RunView, sections: list[tuple[str, SectionBuilder]], dpi: int =
             ("stored data hash", meta.get("data_hash", "")), ("sampler", meta.get("sampler", "")),
             ("run created", meta.get("created", "")), ("run written by", meta.get("version", "")),
             ("report by pavement_mcmc", __version__), ("model", pb.model.describe()),
-            ("run file", str(view.path / "chain.h5"))]
+            ("run file", str(view.folder.chain))]
     table = "".join(f"<tr><th class=l>{esc(k)}</th><td class=l>{esc(str(v))}</td></tr>"
                     for k, v in prov)
     section("Provenance", f"<table>{table}</table>")
