@@ -137,7 +137,9 @@ class RunFolder:
         for rec in (res, cfg):
             if isinstance(rec.get("rule"), dict):
                 return StoppingRule.from_dict(rec["rule"])
-        rule = case_rule(sampler_cfg if sampler_cfg is not None else cfg.get("sampler"),
-                         LEGACY_RULE)
+        if sampler_cfg is None:  # the case's [sampler] as run, and a resume's new target
+            sampler_cfg = {**(cfg.get("resolved") or {}).get("sampler", {}),
+                           **(cfg.get("overrides") or {}).get("sampler", {})}
+        rule = case_rule(sampler_cfg, LEGACY_RULE)
         return rule.with_overrides(**{k: res.get(k) for k in ("ess_target", "rhat_max",
                                                                "min_tau_lengths")})

@@ -71,12 +71,13 @@ def write_table(rows: list[dict], run_dir: Path) -> None:
     """``summary.csv`` and ``summary.md`` in ``run_dir``."""
     if not rows:
         return
+    folder = RunFolder(run_dir)
     keys = list(rows[0])
-    with open(run_dir / "summary.csv", "w", newline="") as fh:
+    with open(folder.summary_csv, "w", newline="") as fh:
         w = csv.DictWriter(fh, fieldnames=keys)
         w.writeheader()
         w.writerows(rows)
-    (run_dir / "summary.md").write_text(format_table(rows) + "\n")
+    folder.summary_md.write_text(format_table(rows) + "\n")
 
 
 def format_table(rows: list[dict]) -> str:
