@@ -20,7 +20,8 @@ Other modules add sections with :func:`register_section`::
     report.register_section("Residual diagnosis", residual_section, order=50)
 
 ``problem`` is the run's Problem and ``view`` a :class:`RunView` (``view.run`` the
-:class:`~pavement_mcmc.storage.RunData`, ``view.burn_in``, ``view.kept``, ``view.flat``,
+:class:`~pavement_mcmc.storage.RunData`, ``view.burn_in``, the kept chain
+``view.get_chain(thin=, flat=)`` and its shorthands ``view.kept``, ``view.flat``,
 ``view.names``, ``view.draws(n)``, ``view.predictive()``, ``view.assessment``). The fragment is
 inserted as is (escape your own text with :func:`html.escape`); the figures follow it, embedded
 as PNG. Sections are placed after the built-in figures, ordered by ``order`` then by

@@ -31,7 +31,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..diagnostics.stopping import StoppingRule
+from ..diagnostics.stopping import Check, StoppingRule
 from ..samplers import Sampler
 from ..storage import Store
 
@@ -149,57 +149,29 @@ def run_sampler(
     rule = (rule or StoppingRule()).with_overrides(
         ess_target=ess_target, min_tau_lengths=min_tau_lengths, rhat_max=rhat_max)
     thin = int(thin)
-    if n_adapt is None:
-        n_adapt = burn_in if burn_in is not None else sampler.adapt_length()
-    if not sampler.adaptive:
-        n_adapt = 0
-    n_adapt = -(-int(n_adapt) // thin) * thin
-    n_adapt_rows = n_adapt // thin
-    burn_rows = None if burn_in is None else -(-int(burn_in) // thin)
-
-    data = store.read() if store.n_saved else None
-    rows = Rows()
-    if data is not None:
-        rows.add(data.chain, data.log_prob, data.accepted)
-    st = store.state
-    loop_state = dict(st.extra.get("loop", {})) if st is not None else {}
+    n_adapt, n_adapt_rows, burn_rows = _adaptation(sampler, burn_in, n_adapt, thin)
+    rows, loop_state = _stored(store)
     n_steps = int(loop_state.get("n_steps", 0))
     n_evals = int(loop_state.get("n_evals", sampler.n_prep_evals))
     names = list(store.param_names)
 
-    block = max(thin, 10 // thin * thin)
-    check = None
-    reason = ""
-    converged = False
+    block, check, converged = max(thin, 10 // thin * thin), None, False
     next_check = int(loop_state.get("next_check", _round_up(n_adapt + CHECK_FIRST, thin)))
     # a kept chain shorter than SKIP_FRACTION x min_tau_lengths x (last tau_max) cannot pass:
     # such a check is skipped (the skip depends on the chain only, so runs stay reproducible)
     hint = loop_state.get("hint", [0, 0.0])  # [burn-in rows, tau_max] of the last check
     while True:
-        if n_steps >= max_steps:
-            reason = f"step budget exhausted ({max_steps} steps)"
-            break
-        if max_seconds is not None and time.perf_counter() - t0 >= max_seconds:
-            reason = f"time budget exhausted ({max_seconds:g} s)"
+        reason = _budget_out(n_steps, max_steps, max_seconds, time.perf_counter() - t0)
+        if reason:
             break
         adapt = n_steps < n_adapt
-        todo = min(block, max_steps - n_steps)
-        if adapt:
-            todo = min(todo, n_adapt - n_steps)
-        if n_steps < min_steps:
-            todo = min(todo, min_steps - n_steps)
-        if n_steps < next_check:  # end the block on the check point
-            todo = min(todo, next_check - n_steps)
-        todo = max(thin, todo // thin * thin)
+        todo = _todo(block, n_steps, max_steps, n_adapt, min_steps, next_check, thin)
         tb = time.perf_counter()
         b = sampler.step(todo, adapt=adapt)
         dt = time.perf_counter() - tb
-        sel = slice(thin - 1, None, thin)
-        for th, lp, bl, acc in zip(b.chain[sel], b.logp[sel], b.blobs[sel], b.accepted[sel]):
-            store.append(th, lp, bl, acc)
+        _append(store, rows, b, thin)
         n_steps += todo
         n_evals += b.n_evals
-        rows.add(b.chain[sel], b.logp[sel], b.accepted[sel])
         due = False
         if not adapt and n_steps >= next_check:  # a check point: check unless it cannot pass
             next_check = _round_up(max(n_steps + CHECK_FIRST, CHECK_GROWTH * n_steps), thin)
@@ -208,41 +180,110 @@ def run_sampler(
         state.extra["loop"] = {"n_steps": n_steps, "n_evals": n_evals, "n_adapt": n_adapt,
                                "thin": thin, "next_check": next_check, "hint": hint}
         store.flush(state)
-        # aim for blocks of ~block_seconds, but at most a quarter of the time so far, so a
-        # short run is not overshot by a long block before its first check
-        target = min(block_seconds, max(0.1, 0.25 * (time.perf_counter() - t0)))
-        block = int(np.clip(todo * target / max(dt, 1e-4), thin, 5000)) // thin * thin
-        block = max(block, thin)
+        block = _next_block(todo, dt, time.perf_counter() - t0, block_seconds, thin)
         if due and n_steps >= min_steps:
             check = rule.check(rows, *rows.small(), n_adapt_rows, burn_rows, names, full=False)
-            tau_max = float(np.max(check.tau))
-            hint = [int(check.burn_in), tau_max if np.isfinite(tau_max) else 0.0]
-            if not check.failures:
-                converged = True
-                reason = rule.met_text()
+            hint, converged = _hint(check), not check.failures
+            reason = rule.met_text() if converged else reason
         if callback is not None:
             callback({"n_steps": n_steps, "n_evals": n_evals, "n_adapt": n_adapt,
-                      "max_steps": max_steps, "ess_target": rule.ess_target,
-                      "acceptance": float(b.accepted.mean()), "adapting": adapt,
-                      "min_ess": None if check is None else float(np.min(check.ess)),
-                      "elapsed": time.perf_counter() - t0})
+                      "max_steps": max_steps, "adapting": adapt,
+                      **_progress(rule, check, b, time.perf_counter() - t0)})
         if converged:
             break
     if not converged and n_steps >= n_adapt and rows.n:
         # stopped by a budget: one full check of everything sampled, for the report
         check = rule.check(rows, *rows.small(), n_adapt_rows, burn_rows, names, full=True)
-        if not check.failures and n_steps >= min_steps:
-            converged = True
-            reason += "; converged: " + rule.met_text()
+        converged = not check.failures and n_steps >= min_steps
+        reason += ("; converged: " + rule.met_text()) if converged else ""
+    return _outcome(rule, check, converged, reason, n_steps, rows.n, n_evals,
+                    time.perf_counter() - t0, n_adapt_rows)
+
+
+def _progress(rule: StoppingRule, check: Check | None, b, elapsed: float) -> dict:
+    """The callback's view of the last block and check (min ESS against the target)."""
+    return {"ess_target": rule.ess_target, "acceptance": float(b.accepted.mean()),
+            "min_ess": None if check is None else float(np.min(check.ess)), "elapsed": elapsed}
+
+
+def _hint(check: Check) -> list:
+    """[burn-in rows, tau_max] of a check: the next check is skipped while it cannot pass."""
+    tau_max = float(np.max(check.tau))
+    return [int(check.burn_in), tau_max if np.isfinite(tau_max) else 0.0]
+
+
+def _budget_out(n_steps: int, max_steps: int, max_seconds: float | None, elapsed: float) -> str:
+    """Why the run must stop now ("" while the budgets last)."""
+    if n_steps >= max_steps:
+        return f"step budget exhausted ({max_steps} steps)"
+    if max_seconds is not None and elapsed >= max_seconds:
+        return f"time budget exhausted ({max_seconds:g} s)"
+    return ""
+
+
+def _adaptation(sampler: Sampler, burn_in: int | None, n_adapt: int | None,
+                thin: int) -> tuple[int, int, int | None]:
+    """(adaptation steps, rounded up to ``thin``; its stored rows; a fixed burn-in in rows)."""
+    if n_adapt is None:
+        n_adapt = burn_in if burn_in is not None else sampler.adapt_length()
+    if not sampler.adaptive:
+        n_adapt = 0
+    n_adapt = -(-int(n_adapt) // thin) * thin
+    burn_rows = None if burn_in is None else -(-int(burn_in) // thin)
+    return n_adapt, n_adapt // thin, burn_rows
+
+
+def _stored(store: Store) -> tuple[Rows, dict]:
+    """The rows already in ``store`` (a resume) and the loop's saved counters."""
+    rows = Rows()
+    if store.n_saved:
+        data = store.read()
+        rows.add(data.chain, data.log_prob, data.accepted)
+    st = store.state
+    return rows, (dict(st.extra.get("loop", {})) if st is not None else {})
+
+
+def _todo(block: int, n_steps: int, max_steps: int, n_adapt: int, min_steps: int,
+          next_check: int, thin: int) -> int:
+    """Steps of the next block: never past the budget, the end of the adaptation, ``min_steps``
+    or the next check point; a multiple of ``thin``."""
+    todo = min(block, max_steps - n_steps)
+    if n_steps < n_adapt:
+        todo = min(todo, n_adapt - n_steps)
+    if n_steps < min_steps:
+        todo = min(todo, min_steps - n_steps)
+    if n_steps < next_check:  # end the block on the check point
+        todo = min(todo, next_check - n_steps)
+    return max(thin, todo // thin * thin)
+
+
+def _append(store: Store, rows: Rows, b, thin: int) -> None:
+    """Every ``thin``-th step of block ``b`` into the store and the loop's rows."""
+    sel = slice(thin - 1, None, thin)
+    for th, lp, bl, acc in zip(b.chain[sel], b.logp[sel], b.blobs[sel], b.accepted[sel]):
+        store.append(th, lp, bl, acc)
+    rows.add(b.chain[sel], b.logp[sel], b.accepted[sel])
+
+
+def _next_block(todo: int, dt: float, elapsed: float, block_seconds: float, thin: int) -> int:
+    """Aim for blocks of ~block_seconds, but at most a quarter of the time so far, so a short
+    run is not overshot by a long block before its first check."""
+    target = min(block_seconds, max(0.1, 0.25 * elapsed))
+    block = int(np.clip(todo * target / max(dt, 1e-4), thin, 5000)) // thin * thin
+    return max(block, thin)
+
+
+def _outcome(rule: StoppingRule, check, converged: bool, reason: str, n_steps: int,
+             n_saved: int, n_evals: int, elapsed: float, n_adapt_rows: int) -> RunResult:
+    """The :class:`RunResult` of a finished loop (the reason completed by the last check)."""
     if check is not None and check.failures and not converged:
         reason += "; not converged: " + "; ".join(check.failures)
     elif check is None and not converged:
         reason += "; not converged: still adapting"
-    n_saved = rows.n
     return RunResult(
         converged=converged, reason=reason, n_steps=n_steps, n_saved=n_saved,
         burn_in=check.burn_in if check is not None else n_saved, n_evals=n_evals,
-        elapsed=time.perf_counter() - t0,
+        elapsed=elapsed,
         ess=check.ess if check else np.zeros(0), tau=check.tau if check else np.zeros(0),
         rhat=check.rhat if check else np.zeros(0),
         acceptance=check.acceptance if check else float("nan"),
