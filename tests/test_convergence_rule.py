@@ -13,8 +13,8 @@ from pavement_mcmc.runs import load_view
 def test_stopped_run_is_not_trusted_and_burn_in_is_after_adaptation(stopped_run, capsys):
     view = load_view(stopped_run)
     a = view.assessment
-    assert a.rule.ess_min == 1000 and a.rule.rhat_max == 1.01  # the fit's rule, not 100 / 1.1
-    assert a.rule.n_adapt_rows == 150 and a.burn_in >= 150
+    assert a.rule.ess_target == 1000 and a.rule.rhat_max == 1.01  # the fit's rule, not 100 / 1.1
+    assert a.n_adapt_rows == 150 and a.burn_in >= 150
     assert not a.trusted and a.unfinished
     assert "unfinished" in a.verdict_text()
     assert main(["diagnostics", str(stopped_run)]) == 0
@@ -22,7 +22,7 @@ def test_stopped_run_is_not_trusted_and_burn_in_is_after_adaptation(stopped_run,
     assert "NOT TRUSTED" in out and "unfinished" in out and "TRUSTED: The run can be" not in out
     assert main(["diagnostics", str(stopped_run), "--json"]) == 0
     d = json.loads(capsys.readouterr().out)
-    assert d["rule"]["ess_min"] == 1000 and d["trusted"] is False and d["unfinished"]
+    assert d["rule"]["ess_target"] == 1000 and d["trusted"] is False and d["unfinished"]
 
 
 def test_run_without_result_is_unfinished_and_user_burn_in_is_raised(stopped_run, tmp_path):
@@ -33,12 +33,12 @@ def test_run_without_result_is_unfinished_and_user_burn_in_is_raised(stopped_run
     assert view.burn_in == 150 and "adaptation" in view.burn_in_source
     a = view.assessment
     assert not a.trusted and "still being written or was stopped" in a.unfinished
-    assert a.rule.ess_min == 1000  # from the run's config
+    assert a.rule.ess_target == 1000  # from the run's config
 
 
 def test_finished_run_is_trusted_under_its_own_rule(finished_run):
     a = load_view(finished_run).assessment
-    assert a.unfinished is None and a.rule.ess_min == 30
+    assert a.unfinished is None and a.rule.ess_target == 30
     assert a.trusted, a.reasons
 
 

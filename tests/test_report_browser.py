@@ -187,7 +187,7 @@ def test_report_loads_in_a_browser_with_every_figure_and_link(report_page, finis
     dead = [t["href"] for t in found["toc"] if not t["target"]]
     assert not dead, f"table-of-contents links without a target: {dead}"
     # the captions and the verdict state the rule the run was held to (result.json), and no other
-    result = json.loads((finished_run / "result.json").read_text())
+    result = json.loads((finished_run / "result.json").read_text())["rule"]
     stated = rule_numbers(found["text"])
     assert stated["ess"] == {f"{result['ess_target']:g}"}, stated
     assert stated["rhat"] == {f"{result['rhat_max']:g}"}, stated

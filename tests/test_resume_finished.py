@@ -44,10 +44,11 @@ def test_ess_target_continues_until_the_new_target(finished_run, tmp_path):
     before = read_run(run / "chain.h5").n_saved
     assert main(["resume", str(run), "--ess-target", "3000", "--no-progress"]) == 0
     res = json.loads((run / "result.json").read_text())
-    assert res["converged"] and res["ess_target"] == 3000 and min(res["ess"]) >= 3000
+    assert res["converged"] and res["rule"]["ess_target"] == 3000 and min(res["ess"]) >= 3000
     assert res["n_steps"] > before
     rec = json.loads((run / "config.json").read_text())
     assert rec["overrides"]["sampler"]["ess_target"] == 3000
+    assert rec["rule"]["ess_target"] == 3000  # the rule stored with the run is the new one
     assert main(["resume", str(run), "--no-progress"]) == 0  # finished under the new target
     assert json.loads((run / "result.json").read_text())["n_steps"] == res["n_steps"]
 

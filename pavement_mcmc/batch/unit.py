@@ -26,7 +26,7 @@ from pathlib import Path
 import numpy as np
 
 from ..data import ConfigError, DataError
-from ..runs import fit, load_run, resume
+from ..runs import RunFolder, fit, load_kept, resume
 from ..runs.tables import plausibility, statistics_table
 from ..storage import StoreMismatch
 from .units import Unit, unit_seed
@@ -53,9 +53,8 @@ def run_unit(unit: Unit, out: str | Path, batch_seed: int = 0, *, max_seconds: f
     makes where a chain stops depend on the machine). ``counter``: a file to which a line is
     appended whenever this function starts sampling (tests count recomputations with it).
     """
-    run_dir = Path(out) / _folder(unit.key)
-    done = run_dir / "unit.json"
-    result = run_dir / "result.json"
+    folder = RunFolder(Path(out) / _folder(unit.key))
+    run_dir, done, result = folder.path, folder.unit, folder.result
     if done.exists() and not (result.exists() and result.stat().st_mtime > done.stat().st_mtime):
         return json.loads(done.read_text())
     # else: not finished, or continued since with `pavement-mcmc resume` (the row is re-read)
@@ -75,7 +74,7 @@ def run_unit(unit: Unit, out: str | Path, batch_seed: int = 0, *, max_seconds: f
     row = {c: row.get(c, _EMPTY.get(c, float("nan"))) for c in COLUMNS}
     run_dir.mkdir(parents=True, exist_ok=True)
     record = {**row, "elapsed_s": time.perf_counter() - t0, "peak_rss_mb": _peak_rss_mb()}
-    tmp = run_dir / "unit.json.tmp"
+    tmp = done.with_name(done.name + ".tmp")
     tmp.write_text(json.dumps(record, indent=1))
     os.replace(tmp, done)  # atomic: a unit is finished exactly when unit.json exists
     return record
@@ -89,7 +88,7 @@ def _folder(key: str) -> str:
 
 
 def _sample(unit: Unit, run_dir: Path, batch_seed: int, max_seconds) -> None:
-    if (run_dir / "result.json").exists():
+    if RunFolder(run_dir).result.exists():
         return  # sampled, killed while writing unit.json: the chain is complete
     if _resumable(run_dir):
         try:
@@ -104,24 +103,24 @@ def _sample(unit: Unit, run_dir: Path, batch_seed: int, max_seconds) -> None:
 
 
 def _resumable(run_dir: Path) -> bool:
-    if not (run_dir / "chain.h5").exists() or not (run_dir / "config.json").exists():
+    folder = RunFolder(run_dir)
+    if not folder.started:
         return False
     from ..storage import read_run
 
     try:
-        return read_run(run_dir / "chain.h5").state is not None
+        return read_run(folder.chain).state is not None
     except (OSError, KeyError, ValueError):
         return False
 
 
 def unit_row(run_dir: str | Path) -> dict:
     """The batch-table figures of a stored run (never re-runs a sampler)."""
-    problem, data = load_run(run_dir)
+    problem, kept = load_kept(run_dir)
+    data = kept.run
     res = data.meta["result"]
-    burn = int(data.meta["burn_in"])
-    table = statistics_table(problem, data, burn)
-    kept = data.chain[burn:] if data.n_saved - burn >= 4 else data.chain[data.n_saved // 2:]
-    flat = kept.reshape(-1, kept.shape[2])
+    table = statistics_table(problem, kept)
+    flat = kept.get_chain(flat=True)
     take = flat[np.unique(np.linspace(0, flat.shape[0] - 1, N_DERIVED).astype(int))]
     p = problem.space.expand(take)
     row: dict = {}
@@ -138,7 +137,7 @@ def unit_row(run_dir: str | Path) -> dict:
         row["h_mean_lo"], row["h_mean_hi"] = (float(v) for v in np.percentile(h, [2.5, 97.5]))
     temps = [i for i, b in enumerate(data.blob_names) if b[5:] in problem.model.meas.sensor_labels]
     if temps:
-        b = data.blobs[burn:] if data.n_saved - burn >= 4 else data.blobs[data.n_saved // 2:]
+        b = kept.get_blobs()
         row["rmse"] = float(np.mean(np.sqrt(np.mean(b[..., temps] ** 2, axis=-1))))
     ess = [r["ess"] for r in table]
     rhat = [r["rhat"] for r in table]

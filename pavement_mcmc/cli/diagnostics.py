@@ -53,20 +53,19 @@ def run(args) -> int:
         f"run {view.path} ({view.problem.cfg.name}): {a.n_steps} steps stored x {a.n_chains} "
         f"walkers, sampler {run_.meta.get('sampler', '?')}",
         f"burn-in: {a.burn_in} steps ({view.burn_in_source}); kept {a.n_kept} steps",
-        f"rule (the fit's stopping rule): ESS >= {a.rule.ess_min:g}, split-R-hat < "
-        f"{a.rule.rhat_max:g}, kept chain >= {a.rule.tau_factor:g} IACT; adaptation "
-        f"{a.rule.n_adapt_rows} steps (never kept)",
+        f"rule (the fit's stopping rule): {a.rule.text()}; adaptation {a.n_adapt_rows} steps "
+        "(never kept)",
         *format_table(a),
-        "note: " + chains_note(run_.meta.get("sampler", "")),
+        "note: " + chains_note(run_.meta.get("sampler", ""), a.rule),
         f"acceptance after burn-in: {a.acceptance:.3f} (walkers min {q[0]:.2f}, median "
         f"{q[1]:.2f}, max {q[2]:.2f})",
         f"drift of the kept log-posterior: trend z = {a.trend_z:.2f} -> "
-        + ("DRIFTING" if a.drifting else "no significant drift (|z| <= 3)"),
+        + ("DRIFTING" if a.drifting else f"no significant drift (|z| <= {a.rule.drift_z:g})"),
     ]
     lines += [f"warning: {w}" for w in a.warnings]
     lines.append(("TRUSTED: " if a.trusted else "NOT TRUSTED: ") + a.verdict_text())
     payload = {"run": str(view.path), "case": view.problem.cfg.name,
                "burn_in_source": view.burn_in_source, **a.to_dict(),
-               "note": chains_note(run_.meta.get("sampler", ""))}
+               "note": chains_note(run_.meta.get("sampler", ""), a.rule)}
     emit(args, payload, "\n".join(lines))
     return 0

@@ -9,7 +9,6 @@ run (unless forced) and prints the others loudly. Numbers and words only; nothin
 
 from __future__ import annotations
 
-import json
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -36,19 +35,22 @@ class Guard:
 
 def check_run(run_dir: str | Path) -> list[Guard]:
     """Findings on the stored run ``run_dir`` (empty when it is fit to judge)."""
-    run_dir = Path(run_dir)
+    from ..runs.folder import RunFolder
+
+    folder = RunFolder(run_dir)
+    run_dir = folder.path
     out: list[Guard] = []
-    res_path = run_dir / "result.json"
-    if not res_path.exists():
-        what = "chain.h5 without result.json" if (run_dir / "chain.h5").exists() else "no result.json"
+    res = folder.read_result()
+    if res is None:
+        what = (f"{folder.chain.name} without {folder.result.name}" if folder.chain.exists()
+                else f"no {folder.result.name}")
         return [Guard("refuse", "unfinished", f"{run_dir}: the run is unfinished ({what}: the fit "
                       "failed, was killed or is still running); its chain is not a posterior to judge")]
-    res = json.loads(res_path.read_text())
     if res.get("failed"):
         return [Guard("refuse", "failed", f"{run_dir}: the fit failed ({res.get('reason', '?')})")]
-    if not (run_dir / "summary.csv").exists():
-        out.append(Guard("warn", "unfinished", f"{run_dir}: no summary.csv (the run did not finish "
-                         "writing)"))
+    if not folder.summary_csv.exists():
+        out.append(Guard("warn", "unfinished", f"{run_dir}: no {folder.summary_csv.name} (the run "
+                         "did not finish writing)"))
     if not res.get("converged", False):
         rhat = res.get("rhat") or []
         mr = f"; max R-hat {max(rhat):.3g}" if rhat else ""
@@ -59,20 +61,19 @@ def check_run(run_dir: str | Path) -> list[Guard]:
 
 
 def _bounds(run_dir: Path) -> list[Guard]:
-    from ..runs import load_run
+    from ..runs import load_kept
 
     try:
-        problem, data = load_run(run_dir)
+        problem, kept = load_kept(run_dir)
     except (OSError, ValueError, KeyError):
         return []
-    chain = np.asarray(data.chain)
-    burn = int(data.meta.get("burn_in", chain.shape[0] // 2))
-    flat = chain[min(burn, chain.shape[0] - 1):].reshape(-1, chain.shape[2])
+    flat = kept.get_chain(flat=True)
+    names = kept.param_names
     lo, hi = problem.space.bounds()
     free = problem.space.free
-    cols = [j for j, n in enumerate(data.param_names) if n in free]
-    idx = [free.index(data.param_names[j]) for j in cols]
-    return bound_findings([data.param_names[j] for j in cols], flat[:, cols], lo[idx], hi[idx])
+    cols = [j for j, n in enumerate(names) if n in free]
+    idx = [free.index(names[j]) for j in cols]
+    return bound_findings([names[j] for j in cols], flat[:, cols], lo[idx], hi[idx])
 
 
 def bound_findings(names: list[str], draws: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> list[Guard]:
@@ -115,14 +116,12 @@ def map_vs_sampled(values: dict[str, float], sd: dict[str, float], map_values: d
 
 
 def sampled_sd(run_dir: str | Path) -> dict[str, float]:
-    """Posterior sd of every sampled parameter but the h pieces, after the stored burn-in."""
-    from ..runs import load_run
+    """Posterior sd of every sampled parameter but the h pieces, over the kept chain."""
+    from ..runs import load_kept
 
-    problem, data = load_run(run_dir)
-    chain = np.asarray(data.chain)
-    burn = int(data.meta.get("burn_in", chain.shape[0] // 2))
-    flat = chain[min(burn, chain.shape[0] - 1):].reshape(-1, chain.shape[2])
-    return {n: float(flat[:, j].std()) for j, n in enumerate(data.param_names)
+    problem, kept = load_kept(run_dir)
+    flat = kept.get_chain(flat=True)
+    return {n: float(flat[:, j].std()) for j, n in enumerate(kept.param_names)
             if n in problem.space and problem.space[n].group != "h"}
 
 

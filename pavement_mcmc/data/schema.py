@@ -50,7 +50,7 @@ SAMPLER_DEFAULTS: dict[str, Any] = {
     "kind": "emcee",
     "seed": None,
     "n_walkers": None,
-    "ess_target": 1000,
+    "ess_target": None,  # None: the stopping rule's own (diagnostics.StoppingRule)
     "max_steps": 200_000,
     "max_seconds": None,
     "burn_in": None,

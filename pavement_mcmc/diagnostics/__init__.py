@@ -5,8 +5,10 @@ Chains are arrays shaped ``(n_steps, n_chains, n_params)`` (the layout of emcee'
 array as a single chain of one parameter. Per-parameter results are arrays of shape
 ``(n_params,)`` (``(1,)`` for 1-D and 2-D input).
 
-Nothing here prints. A diagnostic that cannot be trusted raises :class:`AutocorrError` (carrying
-the estimate) or, when asked to be quiet, emits an :class:`AutocorrWarning`.
+:class:`StoppingRule` is the one stopping rule of a run (the loop stops on it, the diagnostics
+and the report judge by it). Nothing here prints. A diagnostic that cannot be trusted raises
+:class:`AutocorrError` (carrying the estimate) or, when asked to be quiet, emits an
+:class:`AutocorrWarning`.
 
 Notes on emcee
 --------------
@@ -33,13 +35,16 @@ from .burnin import choose_burn_in, is_drifting, trend_z
 from .rhat import split_rhat
 from .segments import SegmentSummary, acceptance_over_time, segment_summary
 from .stationarity import GewekeResult, geweke, geweke_components
+from .stopping import Check, StoppingRule
 from .summarize import summary
 
 __all__ = [
     "AutocorrError",
     "AutocorrWarning",
+    "Check",
     "GewekeResult",
     "SegmentSummary",
+    "StoppingRule",
     "acceptance_over_time",
     "autocorrelation",
     "autocovariance_norm",

@@ -8,29 +8,12 @@ import numpy as np
 
 from .burnin import trend_z
 from .stationarity import geweke_components
+from .stopping import StoppingRule
 from .summarize import summary
 
-#: thresholds of the per-parameter checks when no run's stopping rule is given (a stored run
-#: is assessed with its own rule: :class:`Rule`, the run loop's ESS target and R-hat bound)
-ESS_MIN = 100.0
-RHAT_MAX = 1.1
-TAU_FACTOR = 50.0  # the chain must be >= 50 IACT long (emcee's rule)
+#: Geweke's |z| bound of the per-parameter check (the other thresholds are the run's
+#: :class:`~pavement_mcmc.diagnostics.StoppingRule`)
 GEWEKE_Z = 1.96
-
-
-@dataclass(frozen=True)
-class Rule:
-    """The stopping rule a run was held to; its diagnostics apply the same thresholds.
-
-    ess_min : ESS every parameter needs. rhat_max : split-R-hat bound. tau_factor : the kept
-    chain must be this many IACT long. n_adapt_rows : stored rows of the sampler's adaptation
-    (a burn-in never ends inside it).
-    """
-
-    ess_min: float = ESS_MIN
-    rhat_max: float = RHAT_MAX
-    tau_factor: float = TAU_FACTOR
-    n_adapt_rows: int = 0
 
 
 @dataclass
@@ -63,35 +46,36 @@ class Assessment:
     trusted: bool
     reasons: list[str]
     warnings: list[str]
-    rule: Rule = Rule()
+    rule: StoppingRule = StoppingRule()
     #: None for a run that finished by its rule, else why it is unfinished
     unfinished: str | None = None
+    #: stored rows of the sampler's adaptation (a burn-in never ends inside it)
+    n_adapt_rows: int = 0
 
     def to_dict(self) -> dict:
         d = {k: v for k, v in self.__dict__.items() if k != "acceptance_walkers"}
         d["acceptance_walkers"] = self.acceptance_walkers.tolist()
-        d["rule"] = dict(self.rule.__dict__)
+        d["rule"] = self.rule.to_dict()
         return d
 
     def verdict_text(self) -> str:
         if self.trusted:
-            r = self.rule
-            return (f"The run can be trusted: it finished by its stopping rule and every "
-                    f"parameter passes IACT (chain >= {r.tau_factor:g} IACT), ESS >= {r.ess_min:g}"
-                    f" and split-R-hat < {r.rhat_max:g}, "
-                    "Geweke finds no more early/late differences than chance, and the kept "
-                    "log-posterior does not drift.")
+            return (f"The run can be trusted: it finished by its stopping rule "
+                    f"({self.rule.text()}), and Geweke finds no more early/late differences "
+                    "than chance.")
         return "The run can NOT be trusted yet: " + " ".join(self.reasons)
 
 
-def assess(run, burn_in: int, rule: Rule | None = None,
-           unfinished: str | None = None) -> Assessment:
+def assess(run, burn_in: int, rule: StoppingRule | None = None,
+           unfinished: str | None = None, n_adapt_rows: int = 0) -> Assessment:
     """Convergence diagnostics of a stored run after ``burn_in`` steps.
 
-    A parameter passes if the kept chain is at least ``rule.tau_factor`` (50) integrated
-    autocorrelation times long, its ESS is at least ``rule.ess_min``, split-R-hat <
-    ``rule.rhat_max`` and Geweke's |z| < 1.96 (default rule: ESS 100, R-hat 1.1; a stored run is
-    assessed with the rule it was sampled under). A run that did not finish by its rule
+    A parameter passes if the kept chain is at least ``rule.min_tau_lengths`` integrated
+    autocorrelation times long, its ESS is at least ``rule.ess_target``, split-R-hat <
+    ``rule.rhat_max`` and Geweke's |z| < 1.96 (``rule``: the
+    :class:`~pavement_mcmc.diagnostics.StoppingRule` the run was sampled under, its defaults
+    when not given). ``burn_in`` must not end inside the ``n_adapt_rows`` stored rows of the
+    sampler's adaptation. A run that did not finish by its rule
     (``unfinished``: why) is never trusted. The run is trusted if
     none fails the other checks, no walker is stuck, the kept log-posterior does not drift and
     Geweke's test on the chain's principal components (uncorrelated, unlike the parameters:
@@ -106,12 +90,12 @@ def assess(run, burn_in: int, rule: Rule | None = None,
     kept = chain[burn_in:]
     names = list(run.param_names)
     nk = kept.shape[0]
-    rule = rule or Rule()
-    ess_min, rhat_max, tau_factor = rule.ess_min, rule.rhat_max, rule.tau_factor
+    rule = rule or StoppingRule()
+    ess_min, rhat_max, tau_factor = rule.ess_target, rule.rhat_max, rule.min_tau_lengths
     reasons: list[str] = [f"the run is unfinished: {unfinished}."] if unfinished else []
     warns: list[str] = []
-    if burn_in < rule.n_adapt_rows:
-        raise ValueError(f"burn-in {burn_in} ends inside the adaptation ({rule.n_adapt_rows} rows)")
+    if burn_in < n_adapt_rows:
+        raise ValueError(f"burn-in {burn_in} ends inside the adaptation ({n_adapt_rows} rows)")
     if nk < 8:
         raise ValueError(f"only {nk} steps after a burn-in of {burn_in}: too short to diagnose")
     summ = summary(kept, names)
@@ -137,7 +121,7 @@ def assess(run, burn_in: int, rule: Rule | None = None,
     acceptance = float(acc.mean())
     lp = run.log_prob[burn_in:]
     tz = float(trend_z(lp))
-    drifting = bool(abs(tz) > 3.0)
+    drifting = bool(abs(tz) > rule.drift_z)
     taus = np.array([table[k]["tau"] for k in names])
     short = [k for k in names if not table[k]["tau_ok"]]
     if short:
@@ -171,17 +155,18 @@ def assess(run, burn_in: int, rule: Rule | None = None,
     if burn_in > 0.5 * n:
         warns.append(f"burn-in ({burn_in} steps) is more than half the chain.")
     return Assessment(table, acceptance, acc_w, int(burn_in), n, nk, m, drifting, tz,
-                      not reasons, reasons, warns, rule, unfinished)
+                      not reasons, reasons, warns, rule, unfinished, int(n_adapt_rows))
 
 
-def chains_note(sampler: str) -> str:
-    """What ESS and split-R-hat across chains mean for this sampler."""
+def chains_note(sampler: str, rule: StoppingRule | None = None) -> str:
+    """What ESS and split-R-hat across chains mean for this sampler (under ``rule``)."""
+    n = (rule or StoppingRule()).min_tau_lengths
     if "emcee" in str(sampler):
         return ("emcee walkers are not independent chains (each move uses the other walkers), "
                 "so ESS and split-R-hat across walkers are optimistic; the IACT check (chain "
-                ">= 50 IACT) is the primary one.")
+                f">= {n:g} IACT) is the primary one.")
     return (f"the {sampler or 'sampler'}'s chains are independent Markov chains, so split-R-hat "
-            "across them compares independent runs; the IACT check (chain >= 50 IACT) still "
+            f"across them compares independent runs; the IACT check (chain >= {n:g} IACT) still "
             "applies to each.")
 
 

@@ -20,7 +20,8 @@ Other modules add sections with :func:`register_section`::
     report.register_section("Residual diagnosis", residual_section, order=50)
 
 ``problem`` is the run's Problem and ``view`` a :class:`RunView` (``view.run`` the
-:class:`~pavement_mcmc.storage.RunData`, ``view.burn_in``, ``view.kept``, ``view.flat``,
+:class:`~pavement_mcmc.storage.RunData`, ``view.burn_in``, the kept chain
+``view.get_chain(thin=, flat=)`` and its shorthands ``view.kept``, ``view.flat``,
 ``view.names``, ``view.draws(n)``, ``view.predictive()``, ``view.assessment``). The fragment is
 inserted as is (escape your own text with :func:`html.escape`); the figures follow it, embedded
 as PNG. Sections are placed after the built-in figures, ordered by ``order`` then by
@@ -37,6 +38,7 @@ from pathlib import Path
 
 from .. import __version__
 from ..diagnostics.assessment import chains_note
+from ..diagnostics.stopping import StoppingRule
 from ..runs.tables import plausibility
 from ..runs.view import RunView
 from .builtin import _diag_table, _figures, _stats_table, _urban_section
@@ -62,11 +64,20 @@ def _plausibility_box(view: RunView) -> str:
                    f"{html.escape(f.text())}</div>" for f in found)
 
 
+def _diag_caption(rule: StoppingRule, sampler: str) -> str:
+    """The diagnostics table's caption: the run's own stopping rule, and Geweke's check."""
+    return ("<p class=cap>" + html.escape(
+        f"A parameter passes if the kept chain is ≥ {rule.min_tau_lengths:g} IACT long, ESS ≥ "
+        f"{rule.ess_target:g} and split-R̂ < {rule.rhat_max:g} (the stopping rule this run was "
+        "held to) and |Geweke z| < 1.96 (first 10 % vs last 50 %; the relative difference is the "
+        f"paper's). Note: {chains_note(sampler, rule)}") + "</p>")
+
+
 def build_report(view: RunView, out: str | Path | None = None, dpi: int = 80,
                  n_draws: int = 100) -> Path:
     """Write the run's self-contained HTML report; return its path (default
     ``<run>/report.html``)."""
-    out = Path(out) if out else view.path / "report.html"
+    out = Path(out) if out else view.folder.report
     doc = render(view, registered_sections(), dpi=dpi, n_draws=n_draws)
     out.write_text(doc, encoding="utf-8")
     return out
@@ -94,12 +105,7 @@ def render(view: RunView, sections: list[tuple[str, SectionBuilder]], dpi: int =
                 f"{a.trend_z:.2f} ({'drifting' if a.drifting else 'no significant drift'}).</p>")
     section("Convergence verdict", verdict + _plausibility_box(view))
     section("Posterior statistics", _stats_table(view))
-    r = a.rule  # the run's own stopping rule (result.json), which the assessment applied
-    section("Diagnostics", _diag_table(view) + (
-        f"<p class=cap>A parameter passes if the kept chain is ≥ {r.tau_factor:g} IACT long, "
-        f"ESS ≥ {r.ess_min:g}, split-R̂ < {r.rhat_max:g} (the run's stopping rule) and "
-        "|Geweke z| < 1.96 (first 10 % vs last 50 %; the relative difference "
-        f"is the paper's). Note: {esc(chains_note(run.meta.get('sampler', '')))}</p>"))
+    section("Diagnostics", _diag_table(view) + _diag_caption(a.rule, run.meta.get("sampler", "")))
     for title, build, caption in _figures(view, n_draws):
         try:
             content = _img(build(), dpi, title)
@@ -129,7 +135,7 @@ def render(view: RunView, sections: list[tuple[str, SectionBuilder]], dpi: int =
             ("stored data hash", meta.get("data_hash", "")), ("sampler", meta.get("sampler", "")),
             ("run created", meta.get("created", "")), ("run written by", meta.get("version", "")),
             ("report by pavement_mcmc", __version__), ("model", pb.model.describe()),
-            ("run file", str(view.path / "chain.h5"))]
+            ("run file", str(view.folder.chain))]
     table = "".join(f"<tr><th class=l>{esc(k)}</th><td class=l>{esc(str(v))}</td></tr>"
                     for k, v in prov)
     section("Provenance", f"<table>{table}</table>")

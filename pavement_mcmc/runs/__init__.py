@@ -5,8 +5,13 @@
 - :mod:`.loop`: :func:`run_sampler`, the one loop (blocks -> store, stopping rule, progress);
 - :mod:`.casefile`: the run folder's ``case.toml`` / ``config.json`` and what a resume must find
   unchanged;
-- :mod:`.load`: :func:`load_run` and :func:`point_estimate` (never re-run a sampler);
-- :mod:`.view`: :func:`load_view`, :class:`RunView` (burn-in, kept chain, posterior predictive);
+- :mod:`.folder`: :class:`RunFolder`, the run folder's files, state (empty / unfinished /
+  failed / finished) and the stopping rule stored with it;
+- :mod:`.kept`: :func:`keep`, the one burn-in rule, and :class:`KeptChain`, the one kept-chain
+  view (``get_chain(thin=, flat=)``) every reader uses;
+- :mod:`.load`: :func:`load_kept`, :func:`load_run` and :func:`point_estimate` (never re-run a
+  sampler);
+- :mod:`.view`: :func:`load_view`, :class:`RunView` (kept chain, assessment, posterior predictive);
 - :mod:`.tables`: the statistics table (``summary.csv`` / ``summary.md``);
 - :mod:`.threads`: :func:`single_blas_thread` (the chain must not depend on OMP_NUM_THREADS);
 - :mod:`.export`: ArviZ ``InferenceData`` of a run (optional dependency).
@@ -14,7 +19,9 @@
 
 from .casefile import to_toml
 from .fit import FitOutput, fit
-from .load import load_run, point_estimate
+from .folder import RunFolder
+from .kept import KeptChain, keep
+from .load import load_kept, load_run, point_estimate
 from .loop import RunResult, run_sampler
 from .resume import resume, stored_result
 from .tables import format_table, statistics_table, truth_values, write_table
@@ -23,11 +30,15 @@ from .view import Predictive, RunView, load_view, predictive
 
 __all__ = [
     "FitOutput",
+    "KeptChain",
     "Predictive",
+    "RunFolder",
     "RunResult",
     "RunView",
     "fit",
     "format_table",
+    "keep",
+    "load_kept",
     "load_run",
     "load_view",
     "point_estimate",

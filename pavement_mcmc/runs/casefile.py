@@ -1,5 +1,5 @@
-"""The run folder's record of its case: ``case.toml`` (the case as run) and ``config.json``, and
-what a resume must find unchanged (:func:`identity`, :func:`store_meta`)."""
+"""The run folder's record of its case: ``case.toml`` (the case as run) and ``config.json`` (with
+the stopping rule), and what a resume must find unchanged (:func:`identity`, :func:`store_meta`)."""
 
 from __future__ import annotations
 
@@ -9,6 +9,7 @@ from pathlib import Path
 from typing import Any
 
 from ..data import dump_config
+from .folder import RunFolder
 
 #: [sampler] keys that may change between a run and its resume (budgets, not the chain)
 BUDGET_KEYS = ("max_steps", "max_seconds", "ess_target")
@@ -64,13 +65,16 @@ def store_meta(cfg, kind: str) -> dict:
             "sampler": kind}
 
 
-def write_case_record(cfg, run_dir: Path, overrides: dict, additions: dict) -> None:
+def write_case_record(cfg, run_dir: Path, overrides: dict, additions: dict, rule) -> None:
+    """The run folder's ``case.toml`` and ``config.json`` (with the overrides, additions and
+    the :class:`~pavement_mcmc.diagnostics.StoppingRule` ``rule`` the run is held to)."""
+    folder = RunFolder(run_dir)
     raw = json.loads(json.dumps(cfg.raw))
     raw["data"]["csv"] = str(cfg.csv_path)
     if cfg.truth_path is not None:
         raw["data"]["truth"] = str(cfg.truth_path)
-    (run_dir / "case.toml").write_text(
+    folder.case.write_text(
         f"# case as run, from {cfg.path}; data paths made absolute\n" + to_toml(raw))
     rec = json.loads(dump_config(cfg))
-    rec["overrides"], rec["additions"] = overrides, additions
-    (run_dir / "config.json").write_text(json.dumps(rec, indent=2))
+    rec["overrides"], rec["additions"], rec["rule"] = overrides, additions, rule.to_dict()
+    folder.write_config(rec)

@@ -60,15 +60,10 @@ def _groups(view, thin: int | None, max_draws: int, seed: int) -> tuple[dict, di
     """Plain numpy groups: ``(groups, coords, dims, attrs)``."""
     from ..diagnostics.assessment import chains_note
 
-    pb, run = view.problem, view.run
-    kept = view.kept
-    n_kept = kept.shape[0]
+    pb, run, kept = view.problem, view.run, view.kept_chain
     if thin is None:
-        thin = max(1, math.ceil(n_kept / max_draws))
-    if thin < 1:
-        raise ValueError(f"thin must be >= 1, got {thin}")
-    sl = slice(view.burn_in, None, thin)
-    chain = run.chain[sl]  # (n_draw, n_chain, n_par)
+        thin = max(1, math.ceil(kept.n_kept / max_draws))
+    chain = kept.get_chain(thin)  # (n_draw, n_chain, n_par); refuses thin < 1
     n_draw, n_chain, _ = chain.shape
     names = list(run.param_names)
     space = pb.space
@@ -80,7 +75,8 @@ def _groups(view, thin: int | None, max_draws: int, seed: int) -> tuple[dict, di
     posterior = {n: cd(chain[:, :, i]) for i, n in enumerate(names) if n not in h_names}
     if h_names:
         posterior["h"] = cd(chain[:, :, [names.index(n) for n in h_names]])
-    stats = {"lp": cd(run.log_prob[sl]), "acceptance_rate": cd(run.accepted[sl].astype(float))}
+    stats = {"lp": cd(kept.get_log_prob(thin)),
+             "acceptance_rate": cd(kept.get_accepted(thin).astype(float))}
     flat = chain.reshape(-1, chain.shape[2])  # draw-major
     post = pb.posterior
     pred = post.predict(flat)[:, 1:, :]
@@ -111,7 +107,7 @@ def _groups(view, thin: int | None, max_draws: int, seed: int) -> tuple[dict, di
         "sigma_degC": float(sigma),
         "sampler": str(run.meta.get("sampler", "")),
         "units": "kappa W m-1 K-1; C J m-3 K-1; h W m-2 K-1; T degC; time h",
-        "note": chains_note(str(run.meta.get("sampler", ""))),
+        "note": chains_note(str(run.meta.get("sampler", "")), view.rule),
     }
     return groups, coords, dims, attrs
 

@@ -1,20 +1,12 @@
-"""Fit and resume: case config -> problem -> sampler -> store -> result and statistics table.
+"""Fit: case config -> problem -> sampler -> store -> result and statistics table, written to
+a run folder (:class:`~pavement_mcmc.runs.folder.RunFolder` lists its files).
 
-A run directory holds::
-
-    chain.h5      the chain, log-posterior, RMSE blobs, acceptance and resume state (the storage package)
-    case.toml     the case as run (overrides applied, data paths absolute): rebuilds the problem
-    config.json   the config record (:func:`pavement_mcmc.data.dump_config`) + overrides
-    result.json   the outcome: converged, reason, burn-in, ESS, R-hat, timings
-    summary.csv   the statistics table (paper Tables 1-2 layout); summary.md the same in Markdown
-
-Other modules read a finished run with :func:`pavement_mcmc.runs.load_run`; they never re-run a
-sampler.
+Other modules read a run with :func:`pavement_mcmc.runs.load_kept` (or ``load_view``); they
+never re-run a sampler.
 """
 
 from __future__ import annotations
 
-import json
 import secrets
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
@@ -26,6 +18,8 @@ from ..posterior import Problem, build_problem, find_map
 from ..samplers import get_sampler
 from ..storage import HDF5Store, read_run
 from .casefile import store_meta, write_case_record
+from .folder import RunFolder, case_rule
+from .kept import keep
 from .loop import RunResult, run_sampler
 from .start import map_start, resolve_finer_h
 from .tables import plausibility, statistics_table, write_plausibility, write_table
@@ -62,7 +56,7 @@ def _run(problem, sampler, store, scfg, callback, max_seconds,
          min_steps: int = 0) -> RunResult:
     return run_sampler(
         sampler, store,
-        ess_target=float(scfg["ess_target"]), max_steps=int(scfg["max_steps"]),
+        rule=case_rule(scfg), max_steps=int(scfg["max_steps"]),
         max_seconds=max_seconds if max_seconds is not None else scfg.get("max_seconds"),
         burn_in=scfg.get("burn_in"), thin=int(scfg.get("thin") or 1),
         callback=callback, min_steps=min_steps,
@@ -117,9 +111,9 @@ def fit(
         ov = merge_overrides(ov, {"sampler": {"seed": secrets.randbelow(2**31)}})
         cfg = load_case(case, ov, additions=adds or None)
     scfg = cfg.sampler
-    out = Path(out)
-    h5 = out / "chain.h5"
-    if h5.exists() and not overwrite:
+    folder = RunFolder(out)
+    out = folder.path
+    if folder.chain.exists() and not overwrite:
         raise RunExists(f"{out} already holds a run; pass --overwrite to replace it or "
                               f"'pavement-mcmc resume {out}' to continue it")
     problem = build_problem(cfg)
@@ -132,11 +126,11 @@ def fit(
         smp.n_prep_evals += laplace.n_evals
     smp.prepare(theta0=theta0, laplace=laplace if smp.needs_laplace() else None)
     out.mkdir(parents=True, exist_ok=True)
-    write_case_record(cfg, out, ov, adds)
-    for stale in ("result.json", "summary.csv", "summary.md", "report.html"):
-        (out / stale).unlink(missing_ok=True)
+    write_case_record(cfg, out, ov, adds, case_rule(scfg))
+    for stale in folder.outputs():
+        stale.unlink(missing_ok=True)
     meta = {**store_meta(cfg, scfg["kind"]), "input_ref": problem.input_ref}
-    store = HDF5Store.create(h5, problem.space.free, problem.posterior.blob_names, smp.n_chains,
+    store = HDF5Store.create(folder.chain, problem.space.free, problem.posterior.blob_names, smp.n_chains,
                              meta, overwrite=True)
     with store:
         try:
@@ -150,15 +144,16 @@ def fit(
 def _failed(run_dir: Path, err: BaseException) -> None:
     """Mark a run that stopped on an error: result.json says ``failed`` and why."""
     rec = {"failed": True, "converged": False, "reason": f"failed: {type(err).__name__}: {err}"}
-    (run_dir / "result.json").write_text(json.dumps(rec, indent=2))
+    RunFolder(run_dir).write_result(rec)
 
 
 def _finish(run_dir: Path, problem: Problem, res: RunResult) -> FitOutput:
-    data = read_run(run_dir / "chain.h5")
+    folder = RunFolder(run_dir)
+    data = read_run(folder.chain)
     rec = {k: (v.tolist() if isinstance(v, np.ndarray) else v) for k, v in asdict(res).items()}
     rec["param_names"] = data.param_names
-    (run_dir / "result.json").write_text(json.dumps(rec, indent=2, default=float))
-    table = statistics_table(problem, data, res.burn_in)
+    folder.write_result(rec)
+    table = statistics_table(problem, keep(data, rec, problem.cfg.sampler))
     write_table(table, run_dir)
     findings = plausibility(problem, table)
     write_plausibility(findings, run_dir, problem.model.boundary_note())

@@ -1,15 +1,11 @@
 """The shared run loop: blocks of steps through one store, a stopping rule, progress.
 
-Rule (checked after every block once adaptation is over):
+The stopping rule is a :class:`~pavement_mcmc.diagnostics.StoppingRule` (its thresholds, its
+defaults and its check live there); this loop decides when to check it:
 
 * burn-in = the adaptation phase (``n_adapt`` steps: fast/mh tune their proposal, emcee none)
-  plus the MSER-5 truncation point of the chain-averaged log-posterior after it
-  (:func:`~pavement_mcmc.diagnostics.choose_burn_in`); a fixed ``burn_in`` overrides both (and
-  is then also the adaptation length);
-* converged when, on the kept chain, every parameter has ESS >= ``ess_target``, the chain is at
-  least ``min_tau_lengths`` (50) integrated autocorrelation times long, every split-R-hat is
-  below ``rhat_max`` (1.01) and the mean log-posterior is not drifting
-  (:func:`~pavement_mcmc.diagnostics.is_drifting`);
+  plus the MSER-5 truncation point of the log-posterior after it; a fixed ``burn_in``
+  overrides both (and is then also the adaptation length);
 * the checks run at step counts fixed in advance (:data:`CHECK_FIRST`, :data:`CHECK_GROWTH`:
   a geometric schedule, so a run with a given seed stops at the same step on any machine and
   the diagnostics stay a small share of a long run's time); a check is skipped while the kept
@@ -35,13 +31,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .. import diagnostics as dg
+from ..diagnostics.stopping import Check, StoppingRule
 from ..samplers import Sampler
 from ..storage import Store
 
-#: default adaptation length per sampler (steps), as a function of the dimension
-#: rows (after thinning) on which a convergence check estimates tau and split-R-hat
-TAU_ROWS, RHAT_ROWS = 1000, 500
 #: checks at fixed step counts: CHECK_FIRST steps after the adaptation, then whenever the step
 #: count has grown by CHECK_GROWTH (at least CHECK_FIRST steps later), so where a run stops
 #: depends on its seed only, never on the machine's speed, and the checks cost a bounded share
@@ -63,6 +56,8 @@ class RunResult:
     ess, tau, rhat : per parameter on the kept chain (tau in stored rows).
     acceptance : mean acceptance on the kept chain.
     drifting : the kept log-posterior still trends.
+    rule : the stopping rule the run was held to (diagnostics and the report apply the same one).
+    n_adapt_rows : stored rows of the sampler's adaptation phase (never kept: burn-in >= this).
     """
 
     converged: bool
@@ -77,69 +72,8 @@ class RunResult:
     rhat: np.ndarray = field(default_factory=lambda: np.zeros(0))
     acceptance: float = float("nan")
     drifting: bool = False
-    #: the stopping rule the run was held to (diagnostics and the report apply the same one)
-    ess_target: float = 1000.0
-    rhat_max: float = 1.01
-    min_tau_lengths: float = 50.0
-    #: stored rows of the sampler's adaptation phase (never kept: burn-in >= this)
+    rule: StoppingRule = StoppingRule()
     n_adapt_rows: int = 0
-
-
-@dataclass
-class Check:
-    burn_in: int
-    ess: np.ndarray
-    tau: np.ndarray
-    rhat: np.ndarray
-    acceptance: float
-    drifting: bool
-    failures: list
-
-
-def check_convergence(chain, logp: np.ndarray, accepted: np.ndarray, n_adapt_rows: int,
-                      burn_in: int | None = None, ess_target: float = 1000.0,
-                      min_tau_lengths: float = 50.0, rhat_max: float = 1.01,
-                      names: list[str] | None = None, full: bool = True) -> Check:
-    """Apply the stopping rule to stored rows (see the module docstring).
-
-    ``chain``: (n_rows, n_chains, n_params) array, or the loop's block list (:class:`Rows`).
-    The estimates use the kept chain thinned to at most :data:`TAU_ROWS` rows (tau, ESS, drift)
-    and :data:`RHAT_ROWS` rows (split-R-hat; the rank normalisation sorts every draw), which
-    keeps a check cheap next to the sampling. With ``full=False`` the check stops at the
-    first failing criterion in the order ESS / length (cheap), drift, R-hat (the costly one):
-    the run loop uses that while the chain is still short; unevaluated R-hats are ``nan``.
-    """
-    take = chain.take if isinstance(chain, Rows) else (lambda idx: chain[idx])
-    if burn_in is None:
-        rest = logp[n_adapt_rows:]
-        extra = dg.choose_burn_in(rest) if rest.shape[0] >= 20 else 0
-        burn_in = n_adapt_rows + extra
-    n_kept = logp.shape[0] - burn_in
-    first = take(np.arange(1))
-    m, p = first.shape[1], first.shape[2]
-    names = names or [f"p{i}" for i in range(p)]
-    if n_kept < 8:
-        return Check(burn_in, np.zeros(p), np.full(p, np.inf), np.full(p, np.inf), float("nan"),
-                     False, [f"only {max(n_kept, 0)} kept steps"])
-    k = max(1, n_kept // TAU_ROWS)
-    tau = dg.integrated_time(take(np.arange(burn_in, logp.shape[0], k)), tol=0, quiet=True) * k
-    ess = n_kept * m / tau
-    acc = float(np.mean(accepted[burn_in:]))
-    fails = []
-    if not np.all(ess >= ess_target):
-        fails.append(f"ESS {ess.min():.0f} < {ess_target:g} ({names[int(np.argmin(ess))]})")
-    if not n_kept >= min_tau_lengths * np.max(tau):
-        fails.append(f"kept chain {n_kept} < {min_tau_lengths:g} x tau_max {np.max(tau):.1f}")
-    drifting = dg.is_drifting(logp[burn_in:][::k])
-    if drifting:
-        fails.append("log-posterior still drifting")
-    rhat = np.full(p, np.nan)
-    if full or not fails:
-        kr = max(1, n_kept // RHAT_ROWS)
-        rhat = dg.split_rhat(take(np.arange(burn_in, logp.shape[0], kr)))
-        if not np.all(rhat < rhat_max):
-            fails.append(f"R-hat {np.nanmax(rhat):.3f} >= {rhat_max}")
-    return Check(burn_in, ess, tau, rhat, acc, drifting, fails)
 
 
 def _round_up(n: float, thin: int) -> int:
@@ -185,19 +119,23 @@ def run_sampler(
     sampler: Sampler,
     store: Store,
     *,
-    ess_target: float = 1000.0,
+    rule: StoppingRule | None = None,
+    ess_target: float | None = None,
     max_steps: int = 200_000,
     max_seconds: float | None = None,
     burn_in: int | None = None,
     n_adapt: int | None = None,
     thin: int = 1,
     block_seconds: float = 2.0,
-    min_tau_lengths: float = 50.0,
-    rhat_max: float = 1.01,
+    min_tau_lengths: float | None = None,
+    rhat_max: float | None = None,
     min_steps: int = 0,
     callback: Callable[[dict], None] | None = None,
 ) -> RunResult:
-    """Run ``sampler`` into ``store`` until converged or out of budget.
+    """Run ``sampler`` into ``store`` until ``rule`` is met or the budget is out.
+
+    ``rule`` defaults to :class:`~pavement_mcmc.diagnostics.StoppingRule`'s defaults;
+    ``ess_target``, ``min_tau_lengths`` and ``rhat_max`` replace its thresholds when given.
 
     The sampler must be prepared (fresh run, ``store`` empty) or restored with
     :meth:`Sampler.set_state` from ``store.state`` (resume; the rows already in ``store`` are
@@ -208,109 +146,147 @@ def run_sampler(
     (a resume asked for more steps). Returns a :class:`RunResult`.
     """
     t0 = time.perf_counter()
+    rule = (rule or StoppingRule()).with_overrides(
+        ess_target=ess_target, min_tau_lengths=min_tau_lengths, rhat_max=rhat_max)
     thin = int(thin)
-    if n_adapt is None:
-        n_adapt = burn_in if burn_in is not None else sampler.adapt_length()
-    if not sampler.adaptive:
-        n_adapt = 0
-    n_adapt = -(-int(n_adapt) // thin) * thin
-    n_adapt_rows = n_adapt // thin
-    burn_rows = None if burn_in is None else -(-int(burn_in) // thin)
-
-    data = store.read() if store.n_saved else None
-    rows = Rows()
-    if data is not None:
-        rows.add(data.chain, data.log_prob, data.accepted)
-    st = store.state
-    loop_state = dict(st.extra.get("loop", {})) if st is not None else {}
+    n_adapt, n_adapt_rows, burn_rows = _adaptation(sampler, burn_in, n_adapt, thin)
+    rows, loop_state = _stored(store)
     n_steps = int(loop_state.get("n_steps", 0))
     n_evals = int(loop_state.get("n_evals", sampler.n_prep_evals))
     names = list(store.param_names)
 
-    block = max(thin, 10 // thin * thin)
-    check = None
-    reason = ""
-    converged = False
+    block, check, converged = max(thin, 10 // thin * thin), None, False
     next_check = int(loop_state.get("next_check", _round_up(n_adapt + CHECK_FIRST, thin)))
     # a kept chain shorter than SKIP_FRACTION x min_tau_lengths x (last tau_max) cannot pass:
     # such a check is skipped (the skip depends on the chain only, so runs stay reproducible)
     hint = loop_state.get("hint", [0, 0.0])  # [burn-in rows, tau_max] of the last check
     while True:
-        if n_steps >= max_steps:
-            reason = f"step budget exhausted ({max_steps} steps)"
-            break
-        if max_seconds is not None and time.perf_counter() - t0 >= max_seconds:
-            reason = f"time budget exhausted ({max_seconds:g} s)"
+        reason = _budget_out(n_steps, max_steps, max_seconds, time.perf_counter() - t0)
+        if reason:
             break
         adapt = n_steps < n_adapt
-        todo = min(block, max_steps - n_steps)
-        if adapt:
-            todo = min(todo, n_adapt - n_steps)
-        if n_steps < min_steps:
-            todo = min(todo, min_steps - n_steps)
-        if n_steps < next_check:  # end the block on the check point
-            todo = min(todo, next_check - n_steps)
-        todo = max(thin, todo // thin * thin)
+        todo = _todo(block, n_steps, max_steps, n_adapt, min_steps, next_check, thin)
         tb = time.perf_counter()
         b = sampler.step(todo, adapt=adapt)
         dt = time.perf_counter() - tb
-        sel = slice(thin - 1, None, thin)
-        for th, lp, bl, acc in zip(b.chain[sel], b.logp[sel], b.blobs[sel], b.accepted[sel]):
-            store.append(th, lp, bl, acc)
+        _append(store, rows, b, thin)
         n_steps += todo
         n_evals += b.n_evals
-        rows.add(b.chain[sel], b.logp[sel], b.accepted[sel])
         due = False
         if not adapt and n_steps >= next_check:  # a check point: check unless it cannot pass
             next_check = _round_up(max(n_steps + CHECK_FIRST, CHECK_GROWTH * n_steps), thin)
-            due = rows.n - hint[0] >= SKIP_FRACTION * min_tau_lengths * hint[1]
+            due = rows.n - hint[0] >= SKIP_FRACTION * rule.min_tau_lengths * hint[1]
         state = sampler.get_state()
         state.extra["loop"] = {"n_steps": n_steps, "n_evals": n_evals, "n_adapt": n_adapt,
                                "thin": thin, "next_check": next_check, "hint": hint}
         store.flush(state)
-        # aim for blocks of ~block_seconds, but at most a quarter of the time so far, so a
-        # short run is not overshot by a long block before its first check
-        target = min(block_seconds, max(0.1, 0.25 * (time.perf_counter() - t0)))
-        block = int(np.clip(todo * target / max(dt, 1e-4), thin, 5000)) // thin * thin
-        block = max(block, thin)
+        block = _next_block(todo, dt, time.perf_counter() - t0, block_seconds, thin)
         if due and n_steps >= min_steps:
-            check = check_convergence(rows, *rows.small(), n_adapt_rows, burn_rows,
-                                      ess_target, min_tau_lengths, rhat_max, names, full=False)
-            tau_max = float(np.max(check.tau))
-            hint = [int(check.burn_in), tau_max if np.isfinite(tau_max) else 0.0]
-            if not check.failures:
-                converged = True
-                reason = (f"ESS >= {ess_target:g} for every parameter, kept chain"
-                          f" >= {min_tau_lengths:g} tau, R-hat < {rhat_max}, no drift")
+            check = rule.check(rows, *rows.small(), n_adapt_rows, burn_rows, names, full=False)
+            hint, converged = _hint(check), not check.failures
+            reason = rule.met_text() if converged else reason
         if callback is not None:
             callback({"n_steps": n_steps, "n_evals": n_evals, "n_adapt": n_adapt,
-                      "max_steps": max_steps, "ess_target": ess_target,
-                      "acceptance": float(b.accepted.mean()), "adapting": adapt,
-                      "min_ess": None if check is None else float(np.min(check.ess)),
-                      "elapsed": time.perf_counter() - t0})
+                      "max_steps": max_steps, "adapting": adapt,
+                      **_progress(rule, check, b, time.perf_counter() - t0)})
         if converged:
             break
     if not converged and n_steps >= n_adapt and rows.n:
         # stopped by a budget: one full check of everything sampled, for the report
-        check = check_convergence(rows, *rows.small(), n_adapt_rows, burn_rows, ess_target,
-                                  min_tau_lengths, rhat_max, names, full=True)
-        if not check.failures and n_steps >= min_steps:
-            converged = True
-            reason += (f"; converged: ESS >= {ess_target:g}, kept chain >= {min_tau_lengths:g}"
-                       f" tau, R-hat < {rhat_max}, no drift")
+        check = rule.check(rows, *rows.small(), n_adapt_rows, burn_rows, names, full=True)
+        converged = not check.failures and n_steps >= min_steps
+        reason += ("; converged: " + rule.met_text()) if converged else ""
+    return _outcome(rule, check, converged, reason, n_steps, rows.n, n_evals,
+                    time.perf_counter() - t0, n_adapt_rows)
+
+
+def _progress(rule: StoppingRule, check: Check | None, b, elapsed: float) -> dict:
+    """The callback's view of the last block and check (min ESS against the target)."""
+    return {"ess_target": rule.ess_target, "acceptance": float(b.accepted.mean()),
+            "min_ess": None if check is None else float(np.min(check.ess)), "elapsed": elapsed}
+
+
+def _hint(check: Check) -> list:
+    """[burn-in rows, tau_max] of a check: the next check is skipped while it cannot pass."""
+    tau_max = float(np.max(check.tau))
+    return [int(check.burn_in), tau_max if np.isfinite(tau_max) else 0.0]
+
+
+def _budget_out(n_steps: int, max_steps: int, max_seconds: float | None, elapsed: float) -> str:
+    """Why the run must stop now ("" while the budgets last)."""
+    if n_steps >= max_steps:
+        return f"step budget exhausted ({max_steps} steps)"
+    if max_seconds is not None and elapsed >= max_seconds:
+        return f"time budget exhausted ({max_seconds:g} s)"
+    return ""
+
+
+def _adaptation(sampler: Sampler, burn_in: int | None, n_adapt: int | None,
+                thin: int) -> tuple[int, int, int | None]:
+    """(adaptation steps, rounded up to ``thin``; its stored rows; a fixed burn-in in rows)."""
+    if n_adapt is None:
+        n_adapt = burn_in if burn_in is not None else sampler.adapt_length()
+    if not sampler.adaptive:
+        n_adapt = 0
+    n_adapt = -(-int(n_adapt) // thin) * thin
+    burn_rows = None if burn_in is None else -(-int(burn_in) // thin)
+    return n_adapt, n_adapt // thin, burn_rows
+
+
+def _stored(store: Store) -> tuple[Rows, dict]:
+    """The rows already in ``store`` (a resume) and the loop's saved counters."""
+    rows = Rows()
+    if store.n_saved:
+        data = store.read()
+        rows.add(data.chain, data.log_prob, data.accepted)
+    st = store.state
+    return rows, (dict(st.extra.get("loop", {})) if st is not None else {})
+
+
+def _todo(block: int, n_steps: int, max_steps: int, n_adapt: int, min_steps: int,
+          next_check: int, thin: int) -> int:
+    """Steps of the next block: never past the budget, the end of the adaptation, ``min_steps``
+    or the next check point; a multiple of ``thin``."""
+    todo = min(block, max_steps - n_steps)
+    if n_steps < n_adapt:
+        todo = min(todo, n_adapt - n_steps)
+    if n_steps < min_steps:
+        todo = min(todo, min_steps - n_steps)
+    if n_steps < next_check:  # end the block on the check point
+        todo = min(todo, next_check - n_steps)
+    return max(thin, todo // thin * thin)
+
+
+def _append(store: Store, rows: Rows, b, thin: int) -> None:
+    """Every ``thin``-th step of block ``b`` into the store and the loop's rows."""
+    sel = slice(thin - 1, None, thin)
+    for th, lp, bl, acc in zip(b.chain[sel], b.logp[sel], b.blobs[sel], b.accepted[sel]):
+        store.append(th, lp, bl, acc)
+    rows.add(b.chain[sel], b.logp[sel], b.accepted[sel])
+
+
+def _next_block(todo: int, dt: float, elapsed: float, block_seconds: float, thin: int) -> int:
+    """Aim for blocks of ~block_seconds, but at most a quarter of the time so far, so a short
+    run is not overshot by a long block before its first check."""
+    target = min(block_seconds, max(0.1, 0.25 * elapsed))
+    block = int(np.clip(todo * target / max(dt, 1e-4), thin, 5000)) // thin * thin
+    return max(block, thin)
+
+
+def _outcome(rule: StoppingRule, check, converged: bool, reason: str, n_steps: int,
+             n_saved: int, n_evals: int, elapsed: float, n_adapt_rows: int) -> RunResult:
+    """The :class:`RunResult` of a finished loop (the reason completed by the last check)."""
     if check is not None and check.failures and not converged:
         reason += "; not converged: " + "; ".join(check.failures)
     elif check is None and not converged:
         reason += "; not converged: still adapting"
-    n_saved = rows.n
     return RunResult(
         converged=converged, reason=reason, n_steps=n_steps, n_saved=n_saved,
         burn_in=check.burn_in if check is not None else n_saved, n_evals=n_evals,
-        elapsed=time.perf_counter() - t0,
+        elapsed=elapsed,
         ess=check.ess if check else np.zeros(0), tau=check.tau if check else np.zeros(0),
         rhat=check.rhat if check else np.zeros(0),
         acceptance=check.acceptance if check else float("nan"),
         drifting=check.drifting if check else False,
-        ess_target=float(ess_target), rhat_max=float(rhat_max),
-        min_tau_lengths=float(min_tau_lengths), n_adapt_rows=int(n_adapt_rows),
+        rule=rule, n_adapt_rows=int(n_adapt_rows),
     )

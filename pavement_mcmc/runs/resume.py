@@ -14,33 +14,39 @@ from ..posterior import build_problem
 from ..storage import HDF5Store
 from .casefile import store_meta
 from .fit import FitOutput, _finish, _run, _sampler_for
+from .folder import RunFolder
+from .kept import keep
 from .loop import RunResult
 from .tables import plausibility, statistics_table
 from .threads import single_blas_thread
 
 
-def _record(run_dir: Path) -> dict:
+def _record(folder: RunFolder) -> dict:
     """The run's config.json, or a :class:`~pavement_mcmc.data.RunNotFound` saying why not."""
+    run_dir = folder.path
     if not run_dir.is_dir():
         what = "is a file, not a run directory" if run_dir.exists() else "no such run directory"
         raise RunNotFound(f"{run_dir}: {what} (a run directory is the --out of "
                           "'pavement-mcmc fit')")
-    if not (run_dir / "config.json").is_file() or not (run_dir / "chain.h5").is_file():
+    if not folder.started:
         raise RunNotFound(f"{run_dir}: nothing was written to this run directory yet (no "
-                          "config.json or chain.h5); start it again with 'pavement-mcmc fit'")
-    return json.loads((run_dir / "config.json").read_text())
+                          f"{folder.config.name} or {folder.chain.name}); start it again with "
+                          "'pavement-mcmc fit'")
+    return folder.read_config()
 
 
 def stored_result(run_dir: Path) -> RunResult | None:
-    """The :class:`RunResult` recorded in ``result.json`` (None while the run is unfinished)."""
-    f = Path(run_dir) / "result.json"
-    if not f.is_file():
+    """The :class:`RunResult` recorded in ``result.json`` with the rule the run was held to
+    (None while the run is unfinished or after it failed)."""
+    folder = RunFolder(run_dir)
+    rec = folder.read_result()
+    if rec is None or rec.get("failed"):
         return None
-    rec = json.loads(f.read_text())
     kw = {fl.name: rec[fl.name] for fl in fields(RunResult) if fl.name in rec}
     for k in ("ess", "tau", "rhat"):
         if k in kw:
             kw[k] = np.asarray(kw[k], float)
+    kw["rule"] = folder.rule()
     return RunResult(**kw)
 
 
@@ -73,16 +79,17 @@ def resume(run_dir: str | Path, *, max_seconds: float | None = None, callback=No
     When the chain grows, a ``report.html`` of the old chain is removed
     (``report_removed=True``; the command line writes it anew).
     """
-    run_dir = Path(run_dir)
-    rec = _record(run_dir)
+    folder = RunFolder(run_dir)
+    run_dir = folder.path
+    rec = _record(folder)
     orig = Path(rec["toml_path"])
-    src = orig if orig.exists() else run_dir / "case.toml"
+    src = orig if orig.exists() else folder.case
     overrides = rec.get("overrides") or {}
     if ess_target is not None:
         overrides = merge_overrides(overrides, {"sampler": {"ess_target": float(ess_target)}})
     cfg = load_case(src, overrides or None, additions=rec.get("additions") or None)
     done = stored_result(run_dir)
-    store = HDF5Store.open_append(run_dir / "chain.h5")
+    store = HDF5Store.open_append(folder.chain)
     with store:
         store.check_compatible(_data_meta(cfg, store.meta))
         problem = build_problem(cfg, input_noise=store.meta.get("input_ref"))
@@ -105,16 +112,17 @@ def resume(run_dir: str | Path, *, max_seconds: float | None = None, callback=No
         smp.set_state(state)
         res = _run(problem, smp, store, scfg, callback, max_seconds, min_steps)
     if ess_target is not None:  # the new target is the run's rule from now on
-        rec["overrides"] = overrides
-        (run_dir / "config.json").write_text(json.dumps(rec, indent=2))
-    report = run_dir / "report.html"  # a report of the old chain would now mislead
-    removed = report.exists()
-    report.unlink(missing_ok=True)
+        rec["overrides"], rec["rule"] = overrides, res.rule.to_dict()
+        folder.write_config(rec)
+    removed = folder.report.exists()  # a report of the old chain would now mislead
+    folder.report.unlink(missing_ok=True)
     return replace(_finish(run_dir, problem, res), report_removed=removed)
 
 
 def _unchanged(run_dir: Path, problem, res: RunResult) -> FitOutput:
     from ..storage import read_run
 
-    table = statistics_table(problem, read_run(run_dir / "chain.h5"), res.burn_in)
+    folder = RunFolder(run_dir)
+    data = read_run(folder.chain)
+    table = statistics_table(problem, keep(data, folder.read_result(), problem.cfg.sampler))
     return FitOutput(run_dir, res, table, problem, plausibility(problem, table), ran=False)

@@ -12,7 +12,8 @@ from .. import diagnostics as dg
 from ..physics import LITERATURE
 from ..physics.materials import Finding, check_values
 from ..posterior import Problem
-from ..storage import RunData
+from .folder import RunFolder
+from .kept import KeptChain
 
 
 def truth_values(problem: Problem) -> dict[str, float]:
@@ -34,23 +35,22 @@ def truth_values(problem: Problem) -> dict[str, float]:
     return out
 
 
-def statistics_table(problem: Problem, data: RunData, burn_in: int) -> list[dict]:
-    """One row per free parameter: unit, literature value, prior mean/sd, posterior mean, sd,
-    2.5 % and 97.5 % quantiles, ESS, split-R-hat and the truth (twin data)."""
-    kept = data.chain[burn_in:]
-    if kept.shape[0] < 4:
-        kept = data.chain[data.n_saved // 2:]
+def statistics_table(problem: Problem, kept: KeptChain) -> list[dict]:
+    """One row per free parameter of the kept chain: unit, literature value, prior mean/sd,
+    posterior mean, sd, 2.5 % and 97.5 % quantiles, ESS, split-R-hat and the truth (twin data)."""
+    names = kept.param_names
     try:
-        summ = dg.summary(kept, data.param_names)
+        summ = dg.summary(kept.get_chain(), names)
     except ValueError:  # too short for Geweke / R-hat: moments and quantiles only
-        flat = kept.reshape(-1, kept.shape[2])
+        flat = kept.get_chain(flat=True)
         q = np.percentile(flat, [2.5, 97.5], axis=0) if flat.size else np.full((2, flat.shape[1]), np.nan)
-        summ = {n: {"mean": float(flat[:, i].mean()), "sd": float(flat[:, i].std(ddof=1)),
+        sd = flat.std(axis=0, ddof=1) if flat.shape[0] > 1 else np.full(flat.shape[1], np.nan)
+        summ = {n: {"mean": float(flat[:, i].mean()), "sd": float(sd[i]),
                     "q2.5": float(q[0, i]), "q97.5": float(q[1, i]), "ess": float("nan"),
-                    "rhat": float("nan")} for i, n in enumerate(data.param_names)}
+                    "rhat": float("nan")} for i, n in enumerate(names)}
     truth = truth_values(problem)
     rows = []
-    for name in data.param_names:
+    for name in names:
         p = problem.space[name]
         lit = LITERATURE.get("h" if p.group == "h" else name, float("nan"))
         try:
@@ -71,12 +71,13 @@ def write_table(rows: list[dict], run_dir: Path) -> None:
     """``summary.csv`` and ``summary.md`` in ``run_dir``."""
     if not rows:
         return
+    folder = RunFolder(run_dir)
     keys = list(rows[0])
-    with open(run_dir / "summary.csv", "w", newline="") as fh:
+    with open(folder.summary_csv, "w", newline="") as fh:
         w = csv.DictWriter(fh, fieldnames=keys)
         w.writeheader()
         w.writerows(rows)
-    (run_dir / "summary.md").write_text(format_table(rows) + "\n")
+    folder.summary_md.write_text(format_table(rows) + "\n")
 
 
 def format_table(rows: list[dict]) -> str:
@@ -112,5 +113,5 @@ def write_plausibility(findings: list[Finding], run_dir: Path, note: str | None 
                                                       "ranges of pavement and ground materials"]
     if note:
         lines += ["", f"Note: {note}."]
-    with open(run_dir / "summary.md", "a", encoding="utf-8") as fh:
+    with open(RunFolder(run_dir).summary_md, "a", encoding="utf-8") as fh:
         fh.write("\n".join(lines) + "\n")

@@ -2,19 +2,20 @@
 
 from __future__ import annotations
 
-import inspect
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 from functools import cached_property
 from pathlib import Path
 
 import numpy as np
 
-from .. import diagnostics as dg
 from ..data import RunError, RunNotFound
-from ..diagnostics.assessment import Assessment, Rule, assess
+from ..diagnostics.assessment import Assessment, assess
+from ..diagnostics.stopping import StoppingRule
 from ..parameters import parameter_values
 from ..physics import LITERATURE
-from .load import load_run
+from .folder import RunFolder
+from .kept import KeptChain
+from .load import load_kept
 from .tables import truth_values
 
 
@@ -57,41 +58,63 @@ def predictive(problem, theta: np.ndarray) -> Predictive:
 
 @dataclass
 class RunView:
-    """A stored run with its problem, burn-in and derived quantities (computed lazily).
+    """A stored run with its problem, kept chain and derived quantities (computed lazily).
 
     Attributes
     ----------
     path : the run directory.
     problem : the rebuilt :class:`~pavement_mcmc.posterior.Problem`.
-    run : the stored :class:`~pavement_mcmc.storage.RunData` (committed steps).
-    burn_in : steps discarded.
-    burn_in_source : where ``burn_in`` came from (stored, config, or chosen here by MSER).
+    kept_chain : the :class:`~pavement_mcmc.runs.kept.KeptChain` (``run`` and ``burn_in``);
+        ``get_chain(thin=, flat=)`` reads it.
     seed : seed of the draws used for figures and the predictive.
+    rule : the :class:`~pavement_mcmc.diagnostics.StoppingRule` the run was held to.
+    unfinished : None for a run that finished by its rule, else why it did not.
     """
 
     path: Path
     problem: object
-    run: object
-    burn_in: int
-    burn_in_source: str = "chosen by MSER on the log-posterior trace"
+    kept_chain: KeptChain
     seed: int = 0
-    rule: Rule = Rule()
+    rule: StoppingRule = StoppingRule()
     unfinished: str | None = None
     _cache: dict = field(default_factory=dict, repr=False)
+
+    @property
+    def folder(self) -> RunFolder:
+        return RunFolder(self.path)
+
+    @property
+    def run(self):
+        """The stored :class:`~pavement_mcmc.storage.RunData` (committed steps)."""
+        return self.kept_chain.run
+
+    @property
+    def burn_in(self) -> int:
+        """Stored rows discarded."""
+        return self.kept_chain.burn_in
+
+    @property
+    def burn_in_source(self) -> str:
+        """Where ``burn_in`` came from (given, stored, config, or chosen by MSER)."""
+        return self.kept_chain.source
 
     @property
     def names(self) -> list[str]:
         return list(self.run.param_names)
 
+    def get_chain(self, thin: int = 1, flat: bool = False) -> np.ndarray:
+        """The kept chain (:meth:`KeptChain.get_chain <pavement_mcmc.runs.kept.KeptChain.get_chain>`)."""
+        return self.kept_chain.get_chain(thin, flat)
+
     @property
     def kept(self) -> np.ndarray:
         """(n_kept, n_chains, n_params) chain after burn-in."""
-        return self.run.chain[self.burn_in :]
+        return self.get_chain()
 
     @property
     def flat(self) -> np.ndarray:
         """(n_kept * n_chains, n_params) draws after burn-in."""
-        return self.kept.reshape(-1, self.kept.shape[2])
+        return self.get_chain(flat=True)
 
     def thinned(self, max_steps: int = 2000) -> tuple[np.ndarray, int]:
         """The kept chain thinned to at most ``max_steps`` steps, and the thinning factor.
@@ -99,12 +122,12 @@ class RunView:
         Figures of long runs (Case C keeps ~75 000 steps x 32 chains x 115 parameters) use it:
         autocovariance norms and segment statistics of the full chain would take minutes.
         """
-        thin = max(1, -(-self.kept.shape[0] // max_steps))
-        return self.kept[::thin], thin
+        thin = max(1, -(-self.kept_chain.n_kept // max_steps))
+        return self.get_chain(thin), thin
 
     def draws(self, n: int = 100) -> np.ndarray:
         """``n`` draws from the kept chain, evenly spaced in steps, walkers at random (seeded)."""
-        k = self.kept
+        k = self.get_chain()
         if k.shape[0] == 0:
             raise ValueError(f"{self.path}: no steps left after a burn-in of {self.burn_in}")
         rng = np.random.default_rng(self.seed)
@@ -139,14 +162,15 @@ class RunView:
 
     @cached_property
     def assessment(self) -> Assessment:
-        return assess(self.run, self.burn_in, self.rule, self.unfinished)
+        return assess(self.run, self.burn_in, self.rule, self.unfinished,
+                      self.kept_chain.n_adapt_rows)
 
 
 def _run_file(path: Path) -> Path:
     if path.is_dir():
-        f = path / "chain.h5"
+        f = RunFolder(path).chain
         if not f.exists():
-            raise RunNotFound(f"{path}: no chain.h5 in this run directory (nothing sampled yet?)")
+            raise RunNotFound(f"{path}: no {f.name} in this run directory (nothing sampled yet?)")
         return f
     if not path.exists():
         raise RunNotFound(f"{path}: no such run directory or file")
@@ -158,72 +182,25 @@ def _run_file(path: Path) -> Path:
     return path
 
 
-def _stored_burn_in(run, problem) -> tuple[int | None, str]:
-    """The runner's burn-in (result.json) of a finished run, else the config's, else None."""
-    result = run.meta.get("result") or {}
-    if isinstance(result.get("burn_in"), int | float):
-        return int(result["burn_in"]), "chosen by the sampler loop (result.json)"
-    b = problem.cfg.sampler.get("burn_in") if hasattr(problem.cfg, "sampler") else None
-    return (int(b), "from the case config") if b is not None else (None, "")
-
-
-def run_rule(run, problem) -> tuple[Rule, str | None]:
-    """The stopping rule a stored run was sampled under (result.json, else its config and the
-    loop's defaults) and, unless it finished by that rule, why it is unfinished."""
-    from .loop import run_sampler
-
-    result = run.meta.get("result") or {}
-    defaults = {k: v.default for k, v in inspect.signature(run_sampler).parameters.items()}
-    scfg = getattr(problem.cfg, "sampler", {}) or {}
-    loop = (getattr(run.state, "extra", None) or {}).get("loop", {})
-    n_adapt_rows = loop.get("n_adapt", 0) // max(1, int(loop.get("thin", 1)))
-    rule = Rule(ess_min=float(result.get("ess_target", scfg.get("ess_target", defaults["ess_target"]))),
-                rhat_max=float(result.get("rhat_max", defaults["rhat_max"])),
-                tau_factor=float(result.get("min_tau_lengths", defaults["min_tau_lengths"])),
-                n_adapt_rows=int(result.get("n_adapt_rows", n_adapt_rows)))
-    if not result:
-        why = ("no result.json: the run is still being written or was stopped before it finished "
-               f"({run.n_saved} steps stored); continue it with 'pavement-mcmc resume'")
-    elif not result.get("converged"):
-        why = f"it stopped before meeting its stopping rule ({result.get('reason', '?')})"
-    else:
-        why = None
-    return rule, why
-
-
 def load_view(path: str | Path, burn_in: int | None = None, seed: int = 0) -> RunView:
     """Open a stored run (a directory with ``chain.h5``, or the file) and rebuild its problem.
 
     Parameters
     ----------
     path : run directory or HDF5 file. Safe while another process writes it.
-    burn_in : steps to discard; default: the sampler loop's choice for a finished run
-        (result.json), else the config's ``sampler.burn_in``, else (a run still being written)
-        chosen by MSER (:func:`~pavement_mcmc.diagnostics.choose_burn_in`).
+    burn_in : stored rows to discard; default: the one rule of
+        :func:`~pavement_mcmc.runs.kept.keep` (the loop's choice for a finished run, else the
+        config's ``sampler.burn_in``, else MSER after the adaptation).
     seed : seed of the posterior draws used by figures.
     """
-    path = Path(path)
-    f = _run_file(path)
-    run_dir = f.parent
-    problem, run = load_run(run_dir)
+    f = _run_file(Path(path))
+    folder = RunFolder(f.parent)
+    problem, kept = load_kept(folder.path, burn_in)
+    run = kept.run
     if list(problem.space.free) != list(run.param_names):
         raise ValueError(f"{f}: stored parameters {run.param_names} differ from the rebuilt "
                          f"problem's {problem.space.free}")
     if run.n_saved < 1:
         raise RunError(f"{f}: the run has no committed steps yet")
-    rule, unfinished = run_rule(run, problem)
-    n_adapt = min(rule.n_adapt_rows, run.n_saved - 1)
-    src = "given"
-    if burn_in is None:
-        burn_in, src = _stored_burn_in(run, problem)
-    if burn_in is None:
-        try:
-            burn_in = n_adapt + dg.choose_burn_in(run.log_prob[n_adapt:])
-            src = "chosen by MSER on the log-posterior trace after the adaptation"
-        except ValueError:
-            burn_in, src = max(n_adapt, run.n_saved // 2), "half the chain (too short for MSER)"
-    if burn_in < n_adapt:
-        burn_in, src = n_adapt, f"{src}, raised to the end of the sampler's adaptation"
-    burn_in = int(min(max(burn_in, 0), run.n_saved - 1))
-    return RunView(run_dir, problem, run, burn_in, src, seed, replace(rule, n_adapt_rows=n_adapt),
-                   unfinished)
+    return RunView(folder.path, problem, kept, seed, folder.rule(problem.cfg.sampler),
+                   folder.unfinished_reason(run.n_saved))
