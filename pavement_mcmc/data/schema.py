@@ -37,6 +37,8 @@ DATA_KEYS = (
     "plates",
     "plate_sigma",
     "plate_rel_sigma",
+    "extras",
+    "ir_sigma",
 )
 #: valid values of [model] top: the surface energy balance, or the shallowest sensor measured
 TOPS = ("surface", "measured")
@@ -131,6 +133,8 @@ _DATA_TYPES = {
     "plate_sigma": "number>0",
     "plate_rel_sigma": "number>=0",
     "columns": "table",
+    "extras": "str",
+    "ir_sigma": "number>0",
 }
 _GRID_TYPES = {"kind": "str", "dx": "number>0", "dt": "number>0", "dx_top": "number>0",
                "growth": "number>0", "dx_max": "number>0", "scheme": "str"}
