@@ -15,6 +15,7 @@ from .input_noise import InputNoise, input_jacobian
 from .logpost import LogPosterior, default_flux_sd, default_streams
 from .map import find_map
 from .observations import with_parameters
+from .surface_ir import SurfaceIR
 
 
 @dataclass
@@ -90,6 +91,8 @@ def _assemble(cfg, extensions, h_spec):
         flux_sd = default_flux_sd(meas.G_obs[1:], data.get("plate_sigma", 2.0),
                                   data.get("plate_rel_sigma", 0.1))
     streams = default_streams(model, flux_sd)
+    if "ir_sigma" in data:  # the infrared surface temperature, an offset its nuisance
+        streams.append(SurfaceIR(meas, data["ir_sigma"]))
     space = with_parameters(model.parameter_space(), streams)
     space = space.configure(_known(cfg.parameters, model))
     posterior = LogPosterior(model, space, streams=streams)
