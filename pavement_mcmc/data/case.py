@@ -25,6 +25,10 @@ Schema (paths are relative to the TOML file's directory)::
                                     # SW_in, SW_out, LW_in, LW_out: data/extras.py)
     ir_sigma = 0.5                  # optional, degC: observe T_surf_IR with this sd and an
                                     # offset parameter ir_offset (posterior/surface_ir.py)
+    preset = "ameriflux"            # optional: an AmeriFlux / FLUXNET file as it is, with
+    utc_offset_hours = -7           #   its local standard time, the sample time of an
+    timestamp = "middle"            #   interval and the soil columns' depths (data/fluxsite.py)
+    depths_cm = { TS_1_1_1 = 5, G_1_1_1 = 8 }
     [data.columns]                  # optional renames: file column -> contract role
     "Tair" = "T_air"
     [model]                         # free-form; `h` and `extensions` are type-checked
@@ -180,6 +184,9 @@ def load_case(
             window_hours=tuple(window) if window is not None else None,
             max_gap_fill=data.get("max_gap_fill", 0),
             extras=extras_path,
+            preset=data.get("preset"),
+            preset_options={k: data[k] for k in ("utc_offset_hours", "depths_cm", "timestamp")
+                            if k in data},
         )
     except ValueError as exc:
         exc.add_note(f"while loading the [data] section of {where}")

@@ -39,8 +39,9 @@ class Measurements:
     extras : named optional series at the observation times, ``{role: (n_obs,) array}``
         (read-only mapping): ``T_surf_IR`` (infrared surface temperature, degC), ``RH`` (%),
         ``SW_in``, ``SW_out``, ``LW_in``, ``LW_out`` (W m-2, each positive in the direction its
-        name says) — from the case CSV or a second CSV merged on time (``[data] extras``); see
-        :data:`pavement_mcmc.data.reader.EXTRA_ROLES`.
+        name says), ``LE``, ``H`` (measured turbulent fluxes, W m-2, upward) — from the case CSV
+        or a second CSV merged on time (``[data] extras``); see
+        :data:`pavement_mcmc.data.extras.EXTRA_ROLES`.
     """
 
     t: np.ndarray

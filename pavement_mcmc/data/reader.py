@@ -51,6 +51,7 @@ from .checks import (
     _window,
 )
 from .extras import EXTRA_ROLES, check_extra, merge_extras
+from .fluxsite import apply_preset
 from .measurements import Measurements
 from .times import format_time
 
@@ -74,6 +75,8 @@ def read_csv_case(
     window_hours: Sequence[float | None] | None = None,
     max_gap_fill: int = 0,
     extras: str | Path | None = None,
+    preset: str | None = None,
+    preset_options: Mapping | None = None,
 ) -> Measurements:
     """Read a case CSV, validate it and return its :class:`Measurements`.
 
@@ -100,6 +103,10 @@ def read_csv_case(
     extras : str or Path, optional
         A second CSV whose extras columns (``T_surf_IR``, ``RH``, ``SW_in``, ...) are merged on
         time into ``Measurements.extras`` (:mod:`pavement_mcmc.data.extras`).
+    preset : str, optional
+        ``"ameriflux"`` or ``"fluxnet"``: read a flux-site file as it is
+        (:mod:`pavement_mcmc.data.fluxsite`); ``preset_options``: ``utc_offset_hours``,
+        ``depths_cm``, ``timestamp``.
 
     Returns
     -------
@@ -122,13 +129,7 @@ def read_csv_case(
     if isinstance(max_gap_fill, bool) or not isinstance(max_gap_fill, int) or max_gap_fill < 0:
         raise DataError(f"{path}: max_gap_fill must be an integer >= 0, got {max_gap_fill!r}")
 
-    table = _read_table(path)
-    columns = dict(columns or {})
-    etable = _read_table(str(extras)) if extras is not None else None
-    emap = {}
-    if etable is not None:  # renames of the second file's columns
-        emap = {k: v for k, v in columns.items() if k in etable.header}
-        columns = {k: v for k, v in columns.items() if k not in emap or k in table.header}
+    table, columns, etable, emap = _tables(path, columns, extras, preset, preset_options)
     roles, sensors = _resolve_columns(table, columns)
     depth_obs, depth_bot = _select_sensors(table, sensors, observed, bottom)
 
@@ -201,6 +202,22 @@ def read_csv_case(
         extras=MappingProxyType(named),
         **arrays,
     )
+
+
+def _tables(path: str, columns, extras, preset, preset_options):
+    """The case table (as the contract, through a preset), its renames, and the extras table
+    with its renames (None, {} without one)."""
+    table = _read_table(path)
+    columns = dict(columns or {})
+    etable = _read_table(str(extras)) if extras is not None else None
+    emap = {}
+    if etable is not None:  # renames of the second file's columns
+        emap = {k: v for k, v in columns.items() if k in etable.header}
+        columns = {k: v for k, v in columns.items() if k not in emap or k in table.header}
+    if preset is not None:  # the preset applies the case file's renames itself
+        table = apply_preset(table, preset, columns=columns, **dict(preset_options or {}))
+        columns = {}
+    return table, columns, etable, emap
 
 
 def _check_sigma(sigma: object, path: str) -> float:
