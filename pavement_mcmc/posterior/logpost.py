@@ -201,7 +201,8 @@ class LogPosterior:
         keep = {}
 
         def cotangent(T_nodes, coeffs):
-            rs = [st.residuals(model, T_nodes, coeffs, p) for st in self.streams]
+            preds = [st.predict(model, T_nodes, coeffs, p) for st in self.streams]
+            rs = [pr[:, 1:, :] - st.data for st, pr in zip(self.streams, preds, strict=True)]
             zs = [st.whiten(r) for st, r in zip(self.streams, rs, strict=True)]
             ll = log_likelihood(self.streams, zs[0] if len(zs) == 1 else np.concatenate(zs, axis=1))
             ok = np.isfinite(ll)
@@ -209,8 +210,8 @@ class LogPosterior:
             rmse = [np.sqrt(np.mean(r * r, axis=1)) for r in rs]
             keep["rmse"] = rmse[0] if len(rmse) == 1 else np.concatenate(rmse, axis=1)
             gT, direct = None, {}
-            for st, r, z in zip(self.streams, rs, zs, strict=True):
-                gT, d = st.vjp(model, r, z, ok, T_nodes, coeffs, p, gT)
+            for st, pr, r, z in zip(self.streams, preds, rs, zs, strict=True):
+                gT, d = st.vjp(model, pr, r, z, ok, T_nodes, coeffs, p, gT)
                 for k, v in d.items():
                     direct[k] = direct[k] + v if k in direct else v
             return gT, direct

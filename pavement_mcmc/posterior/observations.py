@@ -87,10 +87,12 @@ class Observation:
         """Sd of each datum alone (n_obs - 1, n_cols)."""
         raise NotImplementedError
 
-    def vjp(self, model, r, z, ok, T_nodes, coeffs, p, gT):
+    def vjp(self, model, pred, r, z, ok, T_nodes, coeffs, p, gT):
         """Adjoint of the log-likelihood term: ``(gT, direct)``.
 
-        ``r``, ``z``: this stream's residuals and whitened residuals; ``ok`` (n_sets,): rows
+        ``pred``: this stream's prediction (its cotangent is made with its memory layout, so
+        the reductions downstream sum in the same order whatever the stream's history);
+        ``r``, ``z``: its residuals and whitened residuals; ``ok`` (n_sets,): rows
         with a finite log-likelihood (the others get no gradient); ``gT``: the nodal
         cotangent so far (None for the first stream), to add into. ``direct``: derivatives of
         the term with respect to parameters (by name, (n_sets,)) or the cell conductivities
@@ -143,8 +145,8 @@ class Temperatures(Observation):
             return np.full(self.data.shape, self.sigma)
         return self.input_noise.marginal_sd.reshape(self.data.shape)
 
-    def vjp(self, model, r, z, ok, T_nodes, coeffs, p, gT):
-        gp = np.zeros((r.shape[0], r.shape[1] + 1, r.shape[2]))
+    def vjp(self, model, pred, r, z, ok, T_nodes, coeffs, p, gT):
+        gp = np.zeros_like(pred)
         gp[:, 1:, :] = -self.weighted(np.where(ok[:, None], z, 0.0)).reshape(r.shape)
         g, direct = model.observe_vjp(gp, T_nodes, p)  # rows with a non-finite fit: 0
         return _add(gT, g), direct
@@ -178,8 +180,8 @@ class Plates(Observation):
     def marginal_sd(self):
         return self.sd
 
-    def vjp(self, model, r, z, ok, T_nodes, coeffs, p, gT):
-        gG = np.zeros((r.shape[0], r.shape[1] + 1, r.shape[2]))
+    def vjp(self, model, pred, r, z, ok, T_nodes, coeffs, p, gT):
+        gG = np.zeros_like(pred)
         gG[:, 1:, :] = -np.where(ok[:, None, None], r, 0.0) / self.sd**2
         return model.observe_flux_vjp(gG, T_nodes, coeffs, p, gT)  # adds into gT
 

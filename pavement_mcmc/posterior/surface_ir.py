@@ -69,7 +69,7 @@ class SurfaceIR(Observation):
     def marginal_sd(self):
         return np.full(self.data.shape, self.sigma)
 
-    def vjp(self, model, r, z, ok, T_nodes, coeffs, p, gT):
+    def vjp(self, model, pred, r, z, ok, T_nodes, coeffs, p, gT):
         g = -np.where(ok[:, None, None], r, 0.0)[..., 0] / self.sigma**2  # (n_sets, n_obs - 1)
         gT = np.zeros(T_nodes.shape) if gT is None else gT
         gT[:, 1:, 0] += g
