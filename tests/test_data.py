@@ -146,7 +146,19 @@ def test_large_time_gap_warns(tmp_path):
 
 def test_unknown_columns_warn(tmp_path):
     rows = [r + ["55"] for r in good_rows()]
-    with pytest.warns(UserWarning, match="RH"):
+    with pytest.warns(UserWarning, match="VWC"):
+        read_csv_case(write_csv(tmp_path, rows, HEADER + ",VWC"), sigma=0.25)
+
+
+def test_extras_columns_of_the_case_csv_are_read(tmp_path):
+    """RH (and T_surf_IR, SW_in, ...) in the case CSV itself land in ``extras``, no warning."""
+    rows = [r + ["55"] for r in good_rows()]
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        m = read_csv_case(write_csv(tmp_path, rows, HEADER + ",RH"), sigma=0.25)
+    np.testing.assert_array_equal(m.extras["RH"], 55.0)
+    rows = [r + ["0.55"] for r in good_rows()]
+    with pytest.raises(DataError, match=r"column 'RH'.*looks like a fraction"):
         read_csv_case(write_csv(tmp_path, rows, HEADER + ",RH"), sigma=0.25)
 
 

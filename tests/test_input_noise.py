@@ -145,3 +145,37 @@ def test_reading_a_run_back_never_reoptimises(tmp_path, monkeypatch):
     ref = out.problem.posterior(theta)[0]
     np.testing.assert_allclose(problem.posterior(theta)[0], ref, rtol=1e-13, atol=0)
     np.testing.assert_allclose(view.problem.posterior(theta)[0], ref, rtol=1e-13, atol=0)
+
+
+def test_criticism_scores_through_the_posteriors_whitening():
+    """With the inputs' noise integrated out, the criticism's residual report, its MAP refits and
+    its hold-out density use the posterior's whitened residuals and marginal sds, not
+    ``residuals / meas.sigma`` (which the whitening makes visibly different here)."""
+    from pathlib import Path
+
+    from pavement_mcmc.criticism.fitting import refit
+    from pavement_mcmc.criticism.residuals import analyse_point
+    from pavement_mcmc.data import load_case
+    from pavement_mcmc.posterior import build_problem
+
+    toml = Path(__file__).resolve().parents[1] / "runs" / "caseA.toml"
+    cfg = load_case(toml, {"data": {"input_sigma": 0.25}})
+    pb = build_problem(cfg, input_noise={})  # linearised at the parameters' values: no MAP
+    post = pb.posterior
+    assert post.input_noise is not None
+    values = pb.space.value_dict()
+    theta = np.array([[values[n] for n in pb.space.free]])
+    z = post.standardized_residuals(post.residuals(theta))[0]
+    rep = analyse_point(pb, values)
+    np.testing.assert_allclose(rep.whitened.ravel(), z, rtol=1e-10, atol=1e-12)
+    assert rep.rmse_sigma == pytest.approx(np.sqrt(np.mean(z**2)), rel=1e-12)
+    naive = rep.rmse / float(cfg.measurements.sigma)
+    assert abs(rep.rmse_sigma - naive) > 0.05 * naive  # the whitening matters on this case
+    for s, lab in enumerate(rep.labels):
+        assert rep.sensors[s].rmse_sigma == pytest.approx(
+            np.sqrt(np.mean(z.reshape(rep.residuals.shape)[:, s] ** 2)), rel=1e-12), lab
+    fit = refit(pb, values, max_nfev=3)
+    zf = post.standardized_residuals(fit.residuals[None])[0]
+    assert fit.rmse_sigma == pytest.approx(np.sqrt(np.mean(zf**2)), rel=1e-10)
+    assert fit.chi2 == pytest.approx(float(np.sum(post.whitened(fit.theta[None]) ** 2)), rel=1e-10)
+    np.testing.assert_allclose(post.marginal_sd().ravel(), post.input_noise.marginal_sd)

@@ -61,7 +61,7 @@ def diagnose_twin(twin, directory: str | Path) -> dict:
         "partial": bool(rk.best is not None and rk.best.partial),
         "none_of_these": rk.none_of_these,
         "first": rk.entries[0].name if rk.entries else None,
-        "base_rmse_sigma": base.rmse / problem.meas.sigma,
+        "base_rmse_sigma": base.rmse_sigma,
         "verdict": rk.verdict,
     }
     if len(twin.hidden) == 1:

@@ -37,6 +37,9 @@ class Fit:
     prior_penalty : sum of squared prior residuals.
     p_eff : effective number of data-determined parameters.
     residuals : (n_obs - 1, n_sensors) predicted minus observed, degC.
+    whitened : (n_obs - 1, n_sensors) the posterior's whitened temperature residuals
+        (:meth:`~pavement_mcmc.posterior.LogPosterior.standardized_residuals`: ``residuals /
+        sigma``, or with noisy inputs ``Sigma^(-1/2) residuals``).
     n_evals : parameter sets solved by the fit.
     """
 
@@ -47,6 +50,7 @@ class Fit:
     prior_penalty: float
     p_eff: float
     residuals: np.ndarray
+    whitened: np.ndarray
     n_evals: int
 
     @property
@@ -56,6 +60,12 @@ class Fit:
     @property
     def rmse(self) -> float:
         return float(np.sqrt(np.mean(self.residuals**2)))
+
+    @property
+    def rmse_sigma(self) -> float:
+        """The temperatures' misfit in noise units, ``sqrt(mean(whitened^2))`` (the RMSE over
+        sigma when the inputs are exact)."""
+        return float(np.sqrt(np.mean(self.whitened**2)))
 
     def values(self) -> dict[str, float]:
         """Every parameter of the problem (free at the estimate, fixed at its value)."""
@@ -96,9 +106,8 @@ def refit(problem, start: dict[str, float] | None = None, *, max_nfev: int = 100
     post = problem.posterior
     lap = find_map(post, start_vector(problem.space, start), max_nfev=max_nfev)
     theta = np.asarray(lap.theta, float)
-    rT, rG = post.data_residuals(theta[None, :])
-    r = rT[0]
-    chi2 = float(np.sum(post.whiten(rT, rG) ** 2))
+    rs = post.data_residuals(theta[None, :])
+    chi2 = float(np.sum(post.whiten(*rs) ** 2))
     return Fit(
         problem=problem,
         names=list(lap.names),
@@ -106,7 +115,8 @@ def refit(problem, start: dict[str, float] | None = None, *, max_nfev: int = 100
         chi2=chi2,
         prior_penalty=prior_penalty(problem.space, theta),
         p_eff=_p_eff(post, lap),
-        residuals=r,
+        residuals=rs[0][0],
+        whitened=post.standardized_residuals(rs[0])[0].reshape(rs[0].shape[1:]),
         n_evals=int(lap.n_evals),
     )
 

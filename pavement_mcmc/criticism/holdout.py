@@ -23,6 +23,7 @@ from ..parameters import ParameterSpace
 from ..physics import Model
 from ..physics.observe import interpolate, interpolation_weights
 from ..posterior import LogPosterior, Problem
+from ..posterior.observations import Temperatures, with_parameters
 from .fitting import refit
 
 _LOG_2PI = np.log(2 * np.pi)
@@ -63,10 +64,11 @@ def subproblem(problem, keep: np.ndarray):
     m = problem.model
     model = Model(sub, m.grid, m.h_basis, m.extensions, scheme=m.scheme, gamma0=m.gamma0,
                   plates=m.plates)
-    defaults = model.parameter_space()
+    streams = [Temperatures(sub), *problem.posterior.streams[1:]]  # plates, ...: unchanged
+    defaults = with_parameters(model.parameter_space(), streams)
     params = [problem.space[n] if n in problem.space else p for n, p in defaults.params.items()]
     space = ParameterSpace(params, defaults.joint_priors)
-    post = LogPosterior(model, space, problem.posterior.flux_sd)
+    post = LogPosterior(model, space, streams=streams)
     if problem.posterior.input_noise is not None:  # the kept sensors' block of the covariance
         post.input_noise = problem.posterior.input_noise.subset(_rows(meas, keep))
     return Problem(problem.cfg, model, space, post, problem.input_ref)
@@ -85,7 +87,7 @@ def leave_one_sensor_out(problem, start: dict[str, float] | None = None) -> Hold
     n = meas.n_sensors
     rmse = np.zeros(n)
     lp = []
-    noise = problem.posterior.input_noise
+    sd_all = problem.posterior.marginal_sd()  # sigma, or each datum's sd with noisy inputs
     for k in range(n):
         keep = np.array([i for i in range(n) if i != k])
         sp = subproblem(problem, keep)
@@ -96,6 +98,6 @@ def leave_one_sensor_out(problem, start: dict[str, float] | None = None) -> Hold
         pred = interpolate(nodes, i, w)[:, 0]
         r = pred[1:] - meas.T_obs[1:, k]
         rmse[k] = float(np.sqrt(np.mean(r**2)))
-        sd = float(meas.sigma) if noise is None else noise.marginal_sd[_rows(meas, [k])]
+        sd = sd_all[:, k]
         lp.append(-0.5 * (r / sd) ** 2 - np.log(sd) - 0.5 * _LOG_2PI)
     return HoldOut(list(meas.sensor_labels), rmse, float(np.mean(np.concatenate(lp))))

@@ -124,7 +124,6 @@ def _entry(name, desc, ref: Fit, cand: Fit, ext, patterns, base_impossible, decl
     s, data, rho = score(ref, cand)
     own = [n for n in cand.names if n not in ref.names] if ext is not None else []
     vals = cand.values()
-    sig = cand.problem.meas.sigma
     return Entry(
         name=name,
         description=desc,
@@ -136,12 +135,12 @@ def _entry(name, desc, ref: Fit, cand: Fit, ext, patterns, base_impossible, decl
         added_params=cand.p_eff - ref.p_eff,
         rho=rho,
         rmse=cand.rmse,
-        rmse_sigma=cand.rmse / sig,
+        rmse_sigma=cand.rmse_sigma,
         rmse_sensors=np.sqrt(np.mean(cand.residuals**2, axis=0)).tolist(),
         evidence=_evidence(name, ext, patterns),
         values={n: vals[n] for n in own},
         at_bound=at_bounds(cand, own, None if ext is None else ext.null_values(cand.problem.meas)),
-        excess_share=excess_share(ref.rmse / sig, cand.rmse / sig),
+        excess_share=excess_share(ref.rmse_sigma, cand.rmse_sigma),
         hook=_hook(ext),
         profile=name in PER_SENSOR and coherent_profile({n: vals[n] for n in own}),
         restores_plausibility=bool(base_impossible) and not _impossible(cand, declared),

@@ -111,6 +111,10 @@ class ResidualReport:
     labels : sensor labels.
     residuals : (n, n_sensors) predicted - observed, degC.
     sigma : noise sd, degC.
+    whitened : (n, n_sensors) the residuals whitened by the posterior's likelihood
+        (:meth:`~pavement_mcmc.posterior.LogPosterior.standardized_residuals`: ``r / sigma``,
+        or ``Sigma^(-1/2) r`` when the inputs' noise is integrated out); every "in sigma"
+        figure here is read from them.
     sensors : per-sensor :class:`SensorStats`.
     rmse : overall RMSE, degC.
     rho : pooled lag-1 autocorrelation of the residuals.
@@ -126,10 +130,12 @@ class ResidualReport:
     rmse: float
     rho: float
     signals: dict[str, np.ndarray]
+    whitened: np.ndarray
 
     @property
     def rmse_sigma(self) -> float:
-        return self.rmse / self.sigma
+        """Overall misfit in noise units, ``sqrt(mean(whitened^2))``."""
+        return float(np.sqrt(np.mean(self.whitened**2)))
 
     def structured(self, floor: float = 1.25, lag1_max: float = 0.3, p_min: float = 1e-3) -> bool:
         """True if the residuals show more than the misfit floor (not :func:`noise_like`)."""
@@ -219,7 +225,8 @@ def _corr(x: np.ndarray, y: np.ndarray) -> tuple[float, float]:
     return r, z
 
 
-def analyse(meas, predicted: np.ndarray, T_surface: np.ndarray | None = None) -> ResidualReport:
+def analyse(meas, predicted: np.ndarray, T_surface: np.ndarray | None = None,
+            posterior=None) -> ResidualReport:
     """Residual statistics of a prediction.
 
     Parameters
@@ -228,6 +235,9 @@ def analyse(meas, predicted: np.ndarray, T_surface: np.ndarray | None = None) ->
     predicted : (n_obs, n_sensors) predicted temperatures at the sensors, degC.
     T_surface : (n_obs,) modelled surface temperature (for T_air - T_s); default the
         shallowest sensor's record.
+    posterior : the :class:`~pavement_mcmc.posterior.LogPosterior` whose likelihood whitens
+        the residuals (its input noise included); default: independent errors of sd
+        ``meas.sigma`` (a prediction scored without a fitted problem).
 
     Returns
     -------
@@ -238,7 +248,12 @@ def analyse(meas, predicted: np.ndarray, T_surface: np.ndarray | None = None) ->
     r = pred[1:] - obs[1:]
     t = meas.t[1:]
     signals = {k: v[1:] for k, v in derived_signals(meas, T_surface).items()}
-    sigma = float(meas.sigma)
+    if posterior is None:
+        sigma = float(meas.sigma)
+        white = r / sigma
+    else:
+        sigma = float(posterior.sigma)
+        white = posterior.standardized_residuals(r[None])[0].reshape(r.shape)
     sensors = []
     for s, (lab, z) in enumerate(zip(meas.sensor_labels, meas.depths, strict=True)):
         rs = r[:, s]
@@ -256,8 +271,8 @@ def analyse(meas, predicted: np.ndarray, T_surface: np.ndarray | None = None) ->
                 depth=float(z),
                 rmse=rmse,
                 bias=bias,
-                rmse_sigma=rmse / sigma,
-                bias_sigma=bias / sigma,
+                rmse_sigma=float(np.sqrt(np.mean(white[:, s] ** 2))),
+                bias_sigma=float(np.mean(white[:, s])),
                 lag1=lag1(rs),
                 ljung_box_q=Q,
                 ljung_box_p=p,
@@ -278,6 +293,7 @@ def analyse(meas, predicted: np.ndarray, T_surface: np.ndarray | None = None) ->
         rmse=float(np.sqrt(np.mean(r**2))),
         rho=pooled_lag1(r),
         signals=signals,
+        whitened=white,
     )
 
 
@@ -286,7 +302,7 @@ def analyse_point(problem, values: dict[str, float]) -> ResidualReport:
     p = {k: np.array([v]) for k, v in _complete(problem, values).items()}
     nodes = problem.model.solve(p)
     pred = problem.model.observe(nodes, p)[0]
-    return analyse(problem.meas, pred, nodes[0, :, 0])
+    return analyse(problem.meas, pred, nodes[0, :, 0], problem.posterior)
 
 
 def _complete(problem, values: dict[str, float]) -> dict[str, float]:

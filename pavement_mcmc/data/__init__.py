@@ -4,6 +4,8 @@
 - :mod:`.reader`: :func:`read_csv_case`, the CSV column contract and its checks of columns and
   sensors; :mod:`.checks`: :class:`DataError` and the row-level checks (times, window, cells,
   ranges);
+- :mod:`.extras`: the optional named series (``T_surf_IR``, ``RH``, radiation components, LE,
+  H) and the merge of a second CSV on time; :mod:`.fluxsite`: AmeriFlux / FLUXNET presets;
 - :mod:`.case`: :func:`load_case` (TOML -> :class:`CaseConfig`), overrides and the run record;
   :mod:`.schema`: the TOML's keys, :class:`ConfigError` and their validation.
 """

@@ -21,6 +21,14 @@ Schema (paths are relative to the TOML file's directory)::
     plates = true                   # optional: observe the G_<d>cm heat-flux plates (if any)
     plate_sigma = 2.0               # optional, W m-2: sd of a plate reading's random error
     plate_rel_sigma = 0.1           # optional: plus this share of the reading
+    extras = "extras.csv"           # optional: a second CSV merged on time (T_surf_IR, RH,
+                                    # SW_in, SW_out, LW_in, LW_out: data/extras.py)
+    ir_sigma = 0.5                  # optional, degC: observe T_surf_IR with this sd and an
+                                    # offset parameter ir_offset (posterior/surface_ir.py)
+    preset = "ameriflux"            # optional: an AmeriFlux / FLUXNET file as it is, with
+    utc_offset_hours = -7           #   its local standard time, the sample time of an
+    timestamp = "middle"            #   interval and the soil columns' depths (data/fluxsite.py)
+    depths_cm = { TS_1_1_1 = 5, G_1_1_1 = 8 }
     [data.columns]                  # optional renames: file column -> contract role
     "Tair" = "T_air"
     [model]                         # free-form; `h` and `extensions` are type-checked
@@ -69,7 +77,7 @@ class CaseConfig:
     raw : the parsed TOML after overrides (JSON-serialisable, paths as written).
     measurements : the validated data.
     truth : the parsed truth JSON, or None.
-    csv_path, truth_path : resolved absolute paths of the data files.
+    csv_path, truth_path, extras_path : resolved absolute paths of the data files.
     """
 
     name: str
@@ -79,6 +87,7 @@ class CaseConfig:
     truth: dict | None
     csv_path: Path
     truth_path: Path | None = None
+    extras_path: Path | None = None
 
     @property
     def description(self) -> str:
@@ -163,6 +172,7 @@ def load_case(
     csv_path = _existing(base, data["csv"], where, "csv")
     truth_path = _existing(base, data["truth"], where, "truth") if "truth" in data else None
     truth = _read_truth(truth_path, where) if truth_path else None
+    extras_path = _existing(base, data["extras"], where, "extras") if "extras" in data else None
     window = data.get("window_hours")
     try:
         meas = read_csv_case(
@@ -173,6 +183,10 @@ def load_case(
             bottom=data.get("bottom_cm"),
             window_hours=tuple(window) if window is not None else None,
             max_gap_fill=data.get("max_gap_fill", 0),
+            extras=extras_path,
+            preset=data.get("preset"),
+            preset_options={k: data[k] for k in ("utc_offset_hours", "depths_cm", "timestamp")
+                            if k in data},
         )
     except ValueError as exc:
         exc.add_note(f"while loading the [data] section of {where}")
@@ -186,6 +200,7 @@ def load_case(
         truth=truth,
         csv_path=csv_path,
         truth_path=truth_path,
+        extras_path=extras_path,
     )
 
 

@@ -3,7 +3,9 @@
 from __future__ import annotations
 
 import hashlib
+from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
+from types import MappingProxyType
 
 import numpy as np
 
@@ -34,6 +36,12 @@ class Measurements:
     depth_offset : depth below the soil surface of the model's ``x = 0``, m (0, or the top
         sensor's depth with a measured top). Every depth in this object is below ``x = 0``;
         labels show the depth below the soil surface.
+    extras : named optional series at the observation times, ``{role: (n_obs,) array}``
+        (read-only mapping): ``T_surf_IR`` (infrared surface temperature, degC), ``RH`` (%),
+        ``SW_in``, ``SW_out``, ``LW_in``, ``LW_out`` (W m-2, each positive in the direction its
+        name says), ``LE``, ``H`` (measured turbulent fluxes, W m-2, upward) — from the case CSV
+        or a second CSV merged on time (``[data] extras``); see
+        :data:`pavement_mcmc.data.extras.EXTRA_ROLES`.
     """
 
     t: np.ndarray
@@ -53,6 +61,7 @@ class Measurements:
     G_obs: np.ndarray | None = None
     T_top: np.ndarray | None = None
     depth_offset: float = 0.0
+    extras: Mapping[str, np.ndarray] = field(default_factory=lambda: MappingProxyType({}))
 
     @property
     def n_plates(self) -> int:
@@ -123,6 +132,7 @@ class Measurements:
             self, t=self.t[rows], T_air=self.T_air[rows], q_net=self.q_net[rows],
             wind=pick(self.wind), rain=pick(self.rain), T_obs=self.T_obs[rows],
             T_bottom=self.T_bottom[rows], G_obs=pick(self.G_obs), T_top=pick(self.T_top),
+            extras=MappingProxyType({k: v[rows] for k, v in self.extras.items()}),
         )
 
     def data_hash(self) -> str:
@@ -139,4 +149,7 @@ class Measurements:
         if self.T_top is not None:
             h.update(np.ascontiguousarray(self.T_top, dtype=np.float64).tobytes())
             h.update(repr(float(self.depth_offset)).encode())
+        for name in sorted(self.extras):  # runs on data without extras keep their hash
+            h.update(name.encode())
+            h.update(np.ascontiguousarray(self.extras[name], dtype=np.float64).tobytes())
         return h.hexdigest()

@@ -13,6 +13,9 @@ column         unit          meaning
 ``T_<d>cm``    degC          ground temperature at depth ``d`` cm (``T_2.5cm``)
 ``G_<d>cm``    W m-2         heat-flux plate at depth ``d`` cm, positive downward
                              (optional; a second kind of observation)
+``T_surf_IR``  degC          infrared surface temperature (optional; with ``RH`` and the
+                             radiation components ``SW_in`` ...: the extras,
+                             :mod:`pavement_mcmc.data.extras`, also from a second CSV)
 =============  ============  ==============================================
 
 Every problem with the input raises :class:`DataError` naming the file, the column and the row
@@ -31,6 +34,7 @@ import re
 import warnings
 from collections.abc import Mapping, Sequence
 from pathlib import Path
+from types import MappingProxyType
 
 import numpy as np
 
@@ -46,6 +50,8 @@ from .checks import (
     _warn_time_gaps,
     _window,
 )
+from .extras import EXTRA_ROLES, check_extra, merge_extras
+from .fluxsite import apply_preset
 from .measurements import Measurements
 from .times import format_time
 
@@ -68,6 +74,9 @@ def read_csv_case(
     bottom: float | None = None,
     window_hours: Sequence[float | None] | None = None,
     max_gap_fill: int = 0,
+    extras: str | Path | None = None,
+    preset: str | None = None,
+    preset_options: Mapping | None = None,
 ) -> Measurements:
     """Read a case CSV, validate it and return its :class:`Measurements`.
 
@@ -91,6 +100,13 @@ def read_csv_case(
         Longest run of consecutive missing cells (per column, inside the window) that is filled
         by linear interpolation in time. Filled gaps are listed in ``Measurements.fill_report``
         as ``(column, first_data_row, last_data_row)`` with 1-based data-row numbers of the file.
+    extras : str or Path, optional
+        A second CSV whose extras columns (``T_surf_IR``, ``RH``, ``SW_in``, ...) are merged on
+        time into ``Measurements.extras`` (:mod:`pavement_mcmc.data.extras`).
+    preset : str, optional
+        ``"ameriflux"`` or ``"fluxnet"``: read a flux-site file as it is
+        (:mod:`pavement_mcmc.data.fluxsite`); ``preset_options``: ``utc_offset_hours``,
+        ``depths_cm``, ``timestamp``.
 
     Returns
     -------
@@ -113,7 +129,7 @@ def read_csv_case(
     if isinstance(max_gap_fill, bool) or not isinstance(max_gap_fill, int) or max_gap_fill < 0:
         raise DataError(f"{path}: max_gap_fill must be an integer >= 0, got {max_gap_fill!r}")
 
-    table = _read_table(path)
+    table, columns, etable, emap = _tables(path, columns, extras, preset, preset_options)
     roles, sensors = _resolve_columns(table, columns)
     depth_obs, depth_bot = _select_sensors(table, sensors, observed, bottom)
 
@@ -151,6 +167,16 @@ def read_csv_case(
         if arr is not None:
             _check_range(table, roles[role], arr, idx, 0.0, math.inf, f"negative {role}")
 
+    named = {}
+    for role in EXTRA_ROLES:
+        if role in roles:
+            named[role] = column(roles[role])
+            check_extra(table, roles[role], named[role], idx, role)
+    if etable is not None:
+        named.update(merge_extras(etable, stamps[idx], t, emap, max_gap_fill, fills, set(named),
+                                  path))
+    for arr in named.values():
+        arr.flags.writeable = False
     time0 = format_time(stamps[idx[0]])
     arrays = dict(
         t=t,
@@ -173,8 +199,25 @@ def read_csv_case(
         sigma=sigma,
         source=path,
         fill_report=tuple(fills),
+        extras=MappingProxyType(named),
         **arrays,
     )
+
+
+def _tables(path: str, columns, extras, preset, preset_options):
+    """The case table (as the contract, through a preset), its renames, and the extras table
+    with its renames (None, {} without one)."""
+    table = _read_table(path)
+    columns = dict(columns or {})
+    etable = _read_table(str(extras)) if extras is not None else None
+    emap = {}
+    if etable is not None:  # renames of the second file's columns
+        emap = {k: v for k, v in columns.items() if k in etable.header}
+        columns = {k: v for k, v in columns.items() if k not in emap or k in table.header}
+    if preset is not None:  # the preset applies the case file's renames itself
+        table = apply_preset(table, preset, columns=columns, **dict(preset_options or {}))
+        columns = {}
+    return table, columns, etable, emap
 
 
 def _check_sigma(sigma: object, path: str) -> float:
@@ -249,7 +292,7 @@ def _refuse_other_dialects(path: str, header: list[str], rows: list[list[str]]) 
 def _role_of(name: str) -> str | float | None:
     """Contract role of a column name: a role string (``G_<d>cm`` for a heat-flux plate, in its
     canonical spelling), a sensor depth in cm, or None."""
-    if name in _ROLES:
+    if name in _ROLES or name in EXTRA_ROLES:
         return name
     m = _DEPTH_RE.match(name)
     if m:
@@ -280,7 +323,8 @@ def _resolve_columns(
         if not isinstance(role, str) or _role_of(role) is None:
             raise DataError(
                 f"{path}, column {src!r} is mapped to {role!r}, which is not a role; valid roles "
-                f"are {', '.join(_ROLES)}, T_<depth>cm (e.g. T_2.5cm) and G_<depth>cm (a heat-flux plate)"
+                f"are {', '.join(_ROLES)}, T_<depth>cm (e.g. T_2.5cm), G_<depth>cm (a heat-flux plate) "
+                f"and the extras {', '.join(EXTRA_ROLES)}"
             )
     roles: dict[str, int] = {}
     sensors: dict[float, int] = {}

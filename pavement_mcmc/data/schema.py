@@ -37,6 +37,12 @@ DATA_KEYS = (
     "plates",
     "plate_sigma",
     "plate_rel_sigma",
+    "extras",
+    "ir_sigma",
+    "preset",
+    "utc_offset_hours",
+    "timestamp",
+    "depths_cm",
 )
 #: valid values of [model] top: the surface energy balance, or the shallowest sensor measured
 TOPS = ("surface", "measured")
@@ -131,6 +137,12 @@ _DATA_TYPES = {
     "plate_sigma": "number>0",
     "plate_rel_sigma": "number>=0",
     "columns": "table",
+    "extras": "str",
+    "ir_sigma": "number>0",
+    "preset": "str",
+    "utc_offset_hours": "number",
+    "timestamp": "str",
+    "depths_cm": "table",
 }
 _GRID_TYPES = {"kind": "str", "dx": "number>0", "dt": "number>0", "dx_top": "number>0",
                "growth": "number>0", "dx_max": "number>0", "scheme": "str"}
@@ -171,6 +183,11 @@ def _validate(raw: dict, where: str) -> None:
             raise _type_error(where, "data.window_hours", "[start, end] in hours", w)
     for src, role in data.get("columns", {}).items():
         _check(where, f"data.columns.{src}", role, "str")
+    for src, depth in data.get("depths_cm", {}).items():
+        _check(where, f"data.depths_cm.{src}", depth, "number")
+    if ("utc_offset_hours" in data or "depths_cm" in data or "timestamp" in data) and "preset" not in data:
+        raise ConfigError(f"{where}: data.utc_offset_hours, depths_cm and timestamp belong to a "
+                          "flux-site preset: set data.preset (ameriflux or fluxnet)")
 
     grid = raw.get("grid", {})
     _unknown(where, "[grid] ", grid, tuple(GRID_DEFAULTS))

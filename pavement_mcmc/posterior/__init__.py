@@ -2,6 +2,8 @@
 
 - :mod:`.logpost`: :class:`LogPosterior`, the vectorised log-posterior, its whitened residuals
   (the one misfit every other module uses) and its gradient;
+- :mod:`.observations`: the :class:`Observation` streams it loops over (temperatures, plates);
+  :mod:`.surface_ir`: the infrared surface temperature, a stream with an offset nuisance;
 - :mod:`.input_noise`: noisy boundary, initial and forcing inputs integrated out of the likelihood;
 - :mod:`.problem`: :func:`build_problem`, a case config -> model, parameter space, posterior;
 - :mod:`.map`: the MAP by least squares and its Laplace approximation;
@@ -12,6 +14,7 @@ from .input_noise import InputNoise, input_jacobian
 from .logpost import LogPosterior
 from .map import Laplace, find_map
 from .marginal import MarginalGMRF, MarginalMAP, find_marginal_map, gmrf_of
+from .observations import Observation
 from .problem import Problem, attach_input_noise, build_problem, input_sigmas
 
 __all__ = [
@@ -20,6 +23,7 @@ __all__ = [
     "LogPosterior",
     "MarginalGMRF",
     "MarginalMAP",
+    "Observation",
     "Problem",
     "attach_input_noise",
     "build_problem",

@@ -1,22 +1,24 @@
-"""The log-posterior: priors + independent Gaussian likelihood over the sensors, vectorised.
+"""The log-posterior: priors + a Gaussian likelihood over observation streams, vectorised.
 
 ``LogPosterior(theta)`` takes the free parameters of many sets at once, ``(n_sets, n_free)``,
-and returns ``(log_post (n_sets,), blobs (n_sets, n_sensors))`` where the blobs are the RMSE of
-each sensor (degC). Sets outside the bounds or prior support get ``-inf`` (and ``inf`` blobs)
-without being solved, without warnings and without NaN. There is no Python loop over sets.
+and returns ``(log_post (n_sets,), blobs (n_sets, n_blobs))`` where the blobs are the RMSE of
+each column of each stream (degC per sensor, W m-2 per plate, ...). Sets outside the bounds or
+prior support get ``-inf`` (and ``inf`` blobs) without being solved, without warnings and
+without NaN. There is no Python loop over sets.
 
-The first observation row is the initial condition (the solver starts from the sensors' values
-interpolated at t = 0), so it carries no information and is left out of the likelihood.
+The likelihood is a list of observation streams (:mod:`.observations`): the buried sensors'
+temperatures first (:class:`~.observations.Temperatures`), then the heat-flux plates
+(:class:`~.observations.Plates`) where the model observes them, then any other stream (the
+infrared surface temperature, :class:`~.surface_ir.SurfaceIR`). Each stream predicts from the
+one solve, whitens its own residuals and gives its log-determinant and its adjoint; their
+whitened residuals, concatenated in that order (:meth:`LogPosterior.whitened`), are the one
+misfit every other module uses. The first observation row is the initial condition (the
+solver starts from the sensors' values interpolated at t = 0), so it carries no information
+and is left out.
 
-With ``input_noise`` set (:mod:`pavement_mcmc.posterior.input_noise`), the noise of the bottom boundary
-and initial temperatures is integrated out: the residuals are whitened by the resulting
-covariance instead of divided by sigma.
-
-Heat-flux plates (a model with ``plates``) are a second kind of observation: independent
-Gaussian errors with a sd per reading, ``flux_sd`` (an absolute floor and a share of the
-reading; the plate's systematic calibration error is the model's ``plate_<label>`` factor).
-Their whitened residuals follow the temperatures' in :meth:`LogPosterior.whitened`, the one
-misfit every other module uses.
+With ``input_noise`` set (:mod:`pavement_mcmc.posterior.input_noise`), the noise of the bottom
+boundary and initial temperatures is integrated out: the temperatures' residuals are whitened
+by the resulting covariance instead of divided by sigma.
 """
 
 from __future__ import annotations
@@ -25,8 +27,20 @@ import numpy as np
 
 from ..parameters import ParameterSpace
 from ..physics.model import Model
+from ..solver import solve
+from .observations import Observation, Plates, Temperatures, default_flux_sd, log_likelihood
+
+__all__ = ["LogPosterior", "default_flux_sd", "default_streams"]
 
 _LOG_2PI = np.log(2.0 * np.pi)
+
+
+def default_streams(model: Model, flux_sd: np.ndarray | None = None) -> list[Observation]:
+    """The model's own streams: its sensors' temperatures, and its plates if it observes them."""
+    out: list[Observation] = [Temperatures(model.meas)]
+    if model.plates:
+        out.append(Plates(model.meas, flux_sd))
+    return out
 
 
 class LogPosterior:
@@ -36,24 +50,68 @@ class LogPosterior:
     ----------
     model : the forward model (its ``meas`` are the data).
     space : the parameter space (free parameters, bounds, priors, joint priors).
+    flux_sd : sd of each plate reading (default :func:`default_flux_sd`), when ``streams`` is
+        not given.
+    streams : the observation streams (default :func:`default_streams`); the first must be the
+        model's :class:`~.observations.Temperatures`.
     """
 
-    def __init__(self, model: Model, space: ParameterSpace, flux_sd: np.ndarray | None = None):
+    def __init__(self, model: Model, space: ParameterSpace, flux_sd: np.ndarray | None = None,
+                 streams: list[Observation] | None = None):
         self.model = model
         self.space = space
         self.meas = model.meas
-        self.obs = model.meas.T_obs[1:]  # (n_obs-1, n_sensors)
-        self.sigma = float(model.meas.sigma)
-        self.n_data = self.obs.size
-        self.input_noise = None  # an InputNoise, or None: boundary and initial data exact
+        self.streams = default_streams(model, flux_sd) if streams is None else list(streams)
+        if not isinstance(self.streams[0], Temperatures):
+            raise ValueError("the first observation stream must be the sensors' temperatures")
         self._grad_cols = None  # (model gradient names, source and free columns), cached
-        self.flux_obs = self.flux_sd = None
-        if model.plates:
-            self.flux_obs = model.meas.G_obs[1:]  # (n_obs-1, n_plates)
-            sd = default_flux_sd(self.flux_obs) if flux_sd is None else np.asarray(flux_sd, float)
-            self.flux_sd = np.broadcast_to(sd, self.flux_obs.shape).copy()
-            if not np.all(self.flux_sd > 0):
-                raise ValueError("flux_sd must be > 0 for every plate reading")
+
+    # -- the temperature stream (the paper's likelihood) and the plates, by their old names ------
+    @property
+    def temperatures(self) -> Temperatures:
+        return self.streams[0]
+
+    @property
+    def input_noise(self):
+        """An :class:`~.input_noise.InputNoise` whitening the temperatures, or None (exact
+        boundary and initial data)."""
+        return self.temperatures.input_noise
+
+    @input_noise.setter
+    def input_noise(self, value) -> None:
+        self.temperatures.input_noise = value
+
+    @property
+    def obs(self) -> np.ndarray:
+        """Observed temperatures after the initial row (n_obs - 1, n_sensors)."""
+        return self.temperatures.data
+
+    @property
+    def sigma(self) -> float:
+        return self.temperatures.sigma
+
+    @property
+    def n_data(self) -> int:
+        return self.temperatures.size
+
+    def stream(self, name: str) -> Observation | None:
+        """The stream called ``name`` (``"temperatures"``, ``"plates"``, ...), or None."""
+        return next((s for s in self.streams if s.name == name), None)
+
+    @property
+    def flux_obs(self) -> np.ndarray | None:
+        s = self.stream("plates")
+        return None if s is None else s.data
+
+    @property
+    def flux_sd(self) -> np.ndarray | None:
+        s = self.stream("plates")
+        return None if s is None else s.sd
+
+    @property
+    def n_whitened(self) -> int:
+        """Number of whitened residuals of :meth:`whitened` (every stream's data)."""
+        return sum(s.size for s in self.streams)
 
     @property
     def names(self) -> list[str]:
@@ -61,14 +119,14 @@ class LogPosterior:
 
     @property
     def blob_names(self) -> list[str]:
-        """RMSE per sensor (degC), then per plate (W m-2)."""
-        plates = self.meas.plate_labels if self.flux_obs is not None else []
-        return [f"rmse_{lab}" for lab in [*self.meas.sensor_labels, *plates]]
+        """RMSE per sensor (degC), then per column of the other streams (plates: W m-2)."""
+        return [f"rmse_{lab}" for s in self.streams for lab in s.labels]
 
     @property
     def ndim(self) -> int:
         return len(self.space.free)
 
+    # -- residuals -----------------------------------------------------------------------------
     def predict(self, theta: np.ndarray) -> np.ndarray:
         """Predicted sensor temperatures, (n_sets, n_obs, n_sensors), degC."""
         return self.model.predict(self.space.expand(theta))
@@ -77,66 +135,47 @@ class LogPosterior:
         """Predicted minus observed temperatures, (n_sets, n_obs - 1, n_sensors), degC."""
         return self.predict(theta)[:, 1:, :] - self.obs
 
-    def data_residuals(self, theta: np.ndarray) -> tuple[np.ndarray, np.ndarray | None]:
-        """Temperature residuals (as :meth:`residuals`) and plate residuals (n_sets, n_obs - 1,
-        n_plates) in W m-2 (None without plates), from one solve."""
+    def data_residuals(self, theta: np.ndarray) -> tuple[np.ndarray, ...]:
+        """Every stream's residuals (n_sets, n_obs - 1, n_cols), in stream order (the
+        temperatures', degC, first; then the plates', W m-2, ...), from one solve."""
         p = self.space.expand(theta)
         model = self.model
-        if self.flux_obs is None:
-            return model.predict(p)[:, 1:, :] - self.obs, None
+        if len(self.streams) == 1:
+            return (model.predict(p)[:, 1:, :] - self.obs,)
         coeffs = model.coefficients(p)
-        from ..solver import solve
-
         T_nodes = solve(model.grid, model.forcing, coeffs, scheme=model.scheme)
-        rT = model.observe(T_nodes, p)[:, 1:, :] - self.obs
-        return rT, model.observe_flux(T_nodes, coeffs, p)[:, 1:, :] - self.flux_obs
+        return tuple(s.residuals(model, T_nodes, coeffs, p) for s in self.streams)
 
-    def whiten(self, rT: np.ndarray, rG: np.ndarray | None = None) -> np.ndarray:
-        """All whitened residuals (..., n_data + n_flux): the temperatures'
-        (:meth:`standardized_residuals`), then the plates' divided by their sd."""
-        z = self.standardized_residuals(rT)
-        if rG is None:
-            return z
-        zG = (rG / self.flux_sd).reshape(*rG.shape[:-2], -1)
-        return np.concatenate([z, zG], axis=-1)
+    def whiten(self, *residuals: np.ndarray | None) -> np.ndarray:
+        """All whitened residuals (..., n_whitened) of the streams' residual arrays (as
+        :meth:`data_residuals`; a None is skipped), concatenated in stream order."""
+        z = [s.whiten(r) for s, r in zip(self.streams, residuals, strict=False) if r is not None]
+        return z[0] if len(z) == 1 else np.concatenate(z, axis=-1)
 
     def whitened(self, theta: np.ndarray) -> np.ndarray:
-        """The whitened residuals of ``theta`` (n_sets, n_data + n_flux): the one misfit."""
+        """The whitened residuals of ``theta`` (n_sets, n_whitened): the one misfit."""
         return self.whiten(*self.data_residuals(theta))
 
     def loglik_blobs(self, theta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Log-likelihood (n_sets,) and blobs (RMSE per sensor, then per plate) of ``theta``."""
-        rT, rG = self.data_residuals(theta)
-        ll = self._loglik_whitened(self.whiten(rT, rG))
-        rmse = np.sqrt(np.mean(rT * rT, axis=1))
-        if rG is not None:
-            rmse = np.concatenate([rmse, np.sqrt(np.mean(rG * rG, axis=1))], axis=1)
-        return ll, rmse
+        """Log-likelihood (n_sets,) and blobs (RMSE per column of each stream) of ``theta``."""
+        rs = self.data_residuals(theta)
+        ll = log_likelihood(self.streams, self.whiten(*rs))
+        rmse = [np.sqrt(np.mean(r * r, axis=1)) for r in rs]
+        return ll, rmse[0] if len(rmse) == 1 else np.concatenate(rmse, axis=1)
 
     def standardized_residuals(self, r: np.ndarray) -> np.ndarray:
-        """Whitened residuals (..., n_data) of residual arrays (..., n_obs-1, n_sensors):
-        ``r / sigma``, or ``Sigma^(-1/2) r`` with noisy inputs."""
-        flat = r.reshape(*r.shape[:-2], -1)
-        if self.input_noise is None:
-            return flat / self.sigma
-        return self.input_noise.whiten(flat)
+        """Whitened temperature residuals (..., n_data) of residual arrays (..., n_obs-1,
+        n_sensors): ``r / sigma``, or ``Sigma^(-1/2) r`` with noisy inputs."""
+        return self.temperatures.whiten(r)
+
+    def marginal_sd(self) -> np.ndarray:
+        """Sd of each temperature datum alone (n_obs - 1, n_sensors), degC: sigma, or with noisy
+        inputs each datum's marginal sd (the inputs' share included)."""
+        return self.temperatures.marginal_sd()
 
     def log_likelihood_from_residuals(self, r: np.ndarray) -> np.ndarray:
-        """Gaussian log-likelihood of residual arrays (..., n_obs-1, n_sensors)."""
-        return self._loglik_whitened(self.standardized_residuals(r))
-
-    def _loglik_whitened(self, z: np.ndarray) -> np.ndarray:
-        logdet = (self.n_data * np.log(self.sigma**2) if self.input_noise is None
-                  else self.input_noise.logdet)
-        n = self.n_data
-        if self.flux_sd is not None and z.shape[-1] > self.n_data:
-            logdet = logdet + 2.0 * float(np.sum(np.log(self.flux_sd)))
-            n += self.flux_sd.size
-        return -0.5 * (np.sum(z * z, axis=-1) + logdet + n * _LOG_2PI)
-
-    def _weighted(self, z: np.ndarray) -> np.ndarray:
-        """``W^T z`` for whitened residuals ``z`` (..., n_data) (``W = Sigma^(-1/2)``, symmetric)."""
-        return z / self.sigma if self.input_noise is None else self.input_noise.whiten(z)
+        """Gaussian log-likelihood of temperature residual arrays (..., n_obs-1, n_sensors)."""
+        return log_likelihood(self.streams[:1], self.standardized_residuals(r))
 
     @property
     def has_gradient(self) -> bool:
@@ -162,29 +201,19 @@ class LogPosterior:
         keep = {}
 
         def cotangent(T_nodes, coeffs):
-            pred = model.observe(T_nodes, p)
-            r = pred[:, 1:, :] - self.obs
-            z = self.standardized_residuals(r)
-            rG = None
-            if self.flux_obs is not None:
-                G = model.observe_flux(T_nodes, coeffs, p)
-                rG = G[:, 1:, :] - self.flux_obs
-                zG = (rG / self.flux_sd).reshape(rG.shape[0], -1)
-                ll = self._loglik_whitened(np.concatenate([z, zG], axis=1))
-            else:
-                ll = self._loglik_whitened(z)
+            preds = [st.predict(model, T_nodes, coeffs, p) for st in self.streams]
+            rs = [pr[:, 1:, :] - st.data for st, pr in zip(self.streams, preds, strict=True)]
+            zs = [st.whiten(r) for st, r in zip(self.streams, rs, strict=True)]
+            ll = log_likelihood(self.streams, zs[0] if len(zs) == 1 else np.concatenate(zs, axis=1))
             ok = np.isfinite(ll)
             keep["ll"] = np.where(ok, ll, -np.inf)
-            keep["rmse"] = np.sqrt(np.mean(r * r, axis=1))
-            gp = np.zeros_like(pred)
-            gp[:, 1:, :] = -self._weighted(np.where(ok[:, None], z, 0.0)).reshape(r.shape)
-            gT, direct = model.observe_vjp(gp, T_nodes, p)  # rows with a non-finite fit: 0
-            if rG is not None:
-                keep["rmse"] = np.concatenate([keep["rmse"], np.sqrt(np.mean(rG * rG, axis=1))], axis=1)
-                gG = np.zeros_like(G)
-                gG[:, 1:, :] = -np.where(ok[:, None, None], rG, 0.0) / self.flux_sd**2
-                gT, df = model.observe_flux_vjp(gG, T_nodes, coeffs, p, gT)  # adds into gT
-                direct.update(df)
+            rmse = [np.sqrt(np.mean(r * r, axis=1)) for r in rs]
+            keep["rmse"] = rmse[0] if len(rmse) == 1 else np.concatenate(rmse, axis=1)
+            gT, direct = None, {}
+            for st, pr, r, z in zip(self.streams, preds, rs, zs, strict=True):
+                gT, d = st.vjp(model, pr, r, z, ok, T_nodes, coeffs, p, gT)
+                for k, v in d.items():
+                    direct[k] = direct[k] + v if k in direct else v
             return gT, direct
 
         _, names, G = model.solve_vjp(p, cotangent)
@@ -214,11 +243,10 @@ class LogPosterior:
         return ll[:, 0], np.where(up > down, grad, 0.0), rmse
 
     def pointwise_log_likelihood(self, theta: np.ndarray) -> np.ndarray:
-        """Log-likelihood of each datum, (n_sets, n_obs - 1, n_sensors) (for ArviZ / LOO).
-
-        With noisy inputs, each datum's marginal density (its sd includes the inputs' share)."""
+        """Log-likelihood of each temperature datum, (n_sets, n_obs - 1, n_sensors) (for ArviZ /
+        LOO). With noisy inputs, each datum's marginal density (its sd includes the inputs' share)."""
         r = self.residuals(theta)
-        sd = self.sigma if self.input_noise is None else self.input_noise.marginal_sd.reshape(r.shape[1:])
+        sd = self.sigma if self.input_noise is None else self.marginal_sd()
         return -0.5 * (r / sd) ** 2 - np.log(sd) - 0.5 * _LOG_2PI
 
     def __call__(self, theta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -241,8 +269,3 @@ class LogPosterior:
         """Log-posterior only, (n_sets,)."""
         return self(theta)[0]
 
-
-def default_flux_sd(G_obs: np.ndarray, abs_sd: float = 2.0, rel_sd: float = 0.1) -> np.ndarray:
-    """Sd of each plate reading, W m-2: ``sqrt(abs_sd^2 + (rel_sd G)^2)`` (a floor and a share
-    of the reading; the calibration error is the separate factor parameter)."""
-    return np.sqrt(abs_sd**2 + (rel_sd * np.asarray(G_obs, float)) ** 2)

@@ -119,8 +119,7 @@ class ScaledResiduals:
         self.idx, self.scale = idx, scale
         self.priors = self.space.prior_residuals()
         self.n_evals = 0
-        self.n_res = posterior.obs.size + (0 if getattr(posterior, "flux_sd", None) is None
-                                           else posterior.flux_sd.size)
+        self.n_res = getattr(posterior, "n_whitened", None) or posterior.obs.size
 
     def theta(self, Z: np.ndarray) -> np.ndarray:
         Z = np.atleast_2d(Z)

@@ -12,8 +12,10 @@ from ..physics import HBasis, Model
 from ..physics.materials import material
 from ..solver import Grid
 from .input_noise import InputNoise, input_jacobian
-from .logpost import LogPosterior, default_flux_sd
+from .logpost import LogPosterior, default_flux_sd, default_streams
 from .map import find_map
+from .observations import with_parameters
+from .surface_ir import SurfaceIR
 
 
 @dataclass
@@ -84,12 +86,16 @@ def _assemble(cfg, extensions, h_spec):
     data = cfg.data
     model = Model(meas, grid, basis, exts, scheme=grid_cfg.get("scheme", "cn"), gamma0=gamma0,
                   plates=data.get("plates", True))
-    space = model.parameter_space().configure(_known(cfg.parameters, model))
     flux_sd = None
     if model.plates:
         flux_sd = default_flux_sd(meas.G_obs[1:], data.get("plate_sigma", 2.0),
                                   data.get("plate_rel_sigma", 0.1))
-    posterior = LogPosterior(model, space, flux_sd)
+    streams = default_streams(model, flux_sd)
+    if "ir_sigma" in data:  # the infrared surface temperature, an offset its nuisance
+        streams.append(SurfaceIR(meas, data["ir_sigma"]))
+    space = with_parameters(model.parameter_space(), streams)
+    space = space.configure(_known(cfg.parameters, model))
+    posterior = LogPosterior(model, space, streams=streams)
     material(model_cfg.get("material"))  # a ValueError listing the materials if unknown
     return model, space, posterior
 

@@ -57,6 +57,7 @@ def identity(cfg) -> dict:
         raw.get("sampler", {}).pop(k, None)
     raw.get("data", {}).pop("csv", None)
     raw.get("data", {}).pop("truth", None)
+    raw.get("data", {}).pop("extras", None)
     return raw
 
 
@@ -73,6 +74,8 @@ def write_case_record(cfg, run_dir: Path, overrides: dict, additions: dict, rule
     raw["data"]["csv"] = str(cfg.csv_path)
     if cfg.truth_path is not None:
         raw["data"]["truth"] = str(cfg.truth_path)
+    if getattr(cfg, "extras_path", None) is not None:
+        raw["data"]["extras"] = str(cfg.extras_path)
     folder.case.write_text(
         f"# case as run, from {cfg.path}; data paths made absolute\n" + to_toml(raw))
     rec = json.loads(dump_config(cfg))

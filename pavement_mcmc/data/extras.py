@@ -1,0 +1,112 @@
+"""Optional named series (``Measurements.extras``): their column convention, checks, and the
+merge of a second CSV on time.
+
+=============  ============  ==========================================================
+column         unit          meaning
+=============  ============  ==========================================================
+``T_surf_IR``  degC          infrared surface temperature (a radiometric skin or canopy
+                             temperature; observed with ``[data] ir_sigma``)
+``RH``         %             relative humidity of the air, 0-100
+``SW_in``      W m-2         incoming (downwelling) short-wave radiation, >= 0
+``SW_out``     W m-2         reflected (upwelling) short-wave radiation, >= 0
+``LW_in``      W m-2         incoming (downwelling) long-wave radiation, > 0
+``LW_out``     W m-2         emitted + reflected (upwelling) long-wave radiation, > 0
+``LE``, ``H``  W m-2         measured latent and sensible heat flux, upward positive
+=============  ============  ==========================================================
+
+They may be columns of the case CSV or of a second CSV named by ``[data] extras`` (comma
+separated, a ``time`` column, other columns ignored). The second file is merged on time: it
+must have a row at every time of the case's window (within 0.5 s; rows between or outside them
+are ignored), and a column the case CSV also provides is refused. ``[data.columns]`` renames
+apply to both files (a source column belongs to the file that has it). Missing cells follow
+``max_gap_fill`` as in the case CSV. Errors are :class:`~pavement_mcmc.data.DataError` naming
+the file, the column and the row.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+
+import numpy as np
+
+from .checks import (
+    Q_MAX,
+    DataError,
+    _check_range,
+    _check_temperature,
+    _numeric_column,
+    _parse_times,
+    _Table,
+)
+from .times import format_time
+
+__all__ = ["EXTRA_ROLES", "check_extra", "merge_extras"]
+
+#: the optional named series and their units
+EXTRA_ROLES = {"T_surf_IR": "degC", "RH": "%", "SW_in": "W m-2", "SW_out": "W m-2",
+               "LW_in": "W m-2", "LW_out": "W m-2", "LE": "W m-2", "H": "W m-2"}
+#: times of the two files closer than this (s) are the same time
+TIME_TOL = 0.5
+
+
+def check_extra(table: _Table, col: int, arr: np.ndarray, idx: np.ndarray, role: str) -> None:
+    """Plausibility of one extra series (range, kelvin, a fraction given for a percentage)."""
+    if role == "T_surf_IR":
+        _check_temperature(table, col, arr, idx)
+    elif role == "RH":
+        if arr.size and float(np.max(arr)) <= 1.5:
+            raise table.error(f"largest value {float(np.max(arr)):g}: looks like a fraction, "
+                              "RH is in % (0-100)", table.header[col], int(idx[0]))
+        _check_range(table, col, arr, idx, 0.0, 105.0, "%")
+    elif role in ("LE", "H"):
+        _check_range(table, col, arr, idx, -Q_MAX, Q_MAX, "W m-2")
+    else:  # radiation components: night-time offsets of a few W m-2 below 0 are allowed
+        _check_range(table, col, arr, idx, -50.0, Q_MAX, "W m-2")
+
+
+def merge_extras(table: _Table, stamps: np.ndarray, t: np.ndarray, columns: Mapping[str, str],
+                 max_gap_fill: int, fills: list, taken: set[str], case_path: str
+                 ) -> dict[str, np.ndarray]:
+    """The extra series of a second CSV at the case's window times.
+
+    ``stamps``: the window's times (s since the epoch); ``t``: the same from the window start;
+    ``columns``: renames, file column -> role; ``taken``: roles the case CSV already provides.
+    """
+    path, header = table.path, table.header
+    names = [columns.get(h, h) for h in header]
+    if "time" not in names:
+        raise DataError(f"{path}, column 'time': the extras file has no time column. "
+                        f"Columns in the file: {', '.join(header)}")
+    found = {role: k for k, role in enumerate(names) if role in EXTRA_ROLES}
+    if not found:
+        raise DataError(f"{path}: no extras column in the file (expected any of "
+                        f"{', '.join(EXTRA_ROLES)}). Columns in the file: {', '.join(header)}")
+    for role in found:
+        if role in taken:
+            raise DataError(f"{path}, column {header[found[role]]!r}: {role!r} is also a column "
+                            f"of {case_path}; keep one")
+    times = _parse_times(table, names.index("time"))
+    idx = _match(table, times, stamps, case_path)
+    out = {}
+    for role, col in found.items():
+        arr = _numeric_column(table, col, idx, t, max_gap_fill, fills)
+        check_extra(table, col, arr, idx, role)
+        out[role] = arr
+    return out
+
+
+def _match(table: _Table, times: np.ndarray, stamps: np.ndarray, case_path: str) -> np.ndarray:
+    """Row of ``table`` at each of ``stamps`` (a DataError naming the first time it lacks)."""
+    hi = np.minimum(np.searchsorted(times, stamps), times.size - 1)
+    lo = np.maximum(hi - 1, 0)
+    j = np.where(np.abs(times[lo] - stamps) <= np.abs(times[hi] - stamps), lo, hi)
+    miss = np.flatnonzero(np.abs(times[j] - stamps) > TIME_TOL)
+    if miss.size:
+        k = int(miss[0])
+        more = f" ({miss.size} of the window's {stamps.size} times in all)" if miss.size > 1 else ""
+        raise DataError(
+            f"{table.path}, column 'time': no row at {format_time(stamps[k])}, a time of "
+            f"{case_path}'s window{more}; the nearest is {format_time(times[j[k]])}. The extras "
+            "file must have a row at every time of the case (same clock, UTC)")
+    return j
+

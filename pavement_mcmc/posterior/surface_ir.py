@@ -1,0 +1,76 @@
+r"""The infrared surface temperature as an observation stream (``T_surf_IR``, degC).
+
+An infrared thermometer (or a pyrgeometer's upwelling long-wave, :math:`T = (L_\uparrow /
+\varepsilon\sigma_{SB})^{1/4}`) reads the radiometric temperature of the surface. The model's
+surface temperature is its top node (``x = 0``, where the surface energy balance acts), so
+
+.. math:: T_\mathrm{IR}(t) = T_s(t) + \delta + e(t),\qquad e \sim N(0, \sigma_\mathrm{IR}^2),
+
+with :math:`\delta` = ``ir_offset`` (degC), a nuisance parameter with a Gaussian prior of sd
+:data:`OFFSET_SD`: an emissivity error :math:`\Delta\varepsilon` shifts a radiometric
+temperature by about :math:`-T\,\Delta\varepsilon / 4\varepsilon` (0.7 K per 0.01 near 290 K),
+and a canopy's skin is not the soil's top. Its value and bounds can be set in
+``[parameters.ir_offset]`` (``vary = false`` fixes it).
+
+Column convention: ``T_surf_IR`` in the case CSV or in the ``[data] extras`` CSV
+(:mod:`pavement_mcmc.data.extras`); switched on by ``[data] ir_sigma`` (the sd of one reading,
+degC). A measured top is refused: its top node is a buried sensor, not the surface.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..parameters import Parameter
+from ..parameters.priors import TruncatedNormal
+from .observations import Observation
+
+__all__ = ["COLUMN", "OFFSET_SD", "SurfaceIR"]
+
+#: the column of the stream (:data:`pavement_mcmc.data.extras.EXTRA_ROLES`)
+COLUMN = "T_surf_IR"
+#: prior sd of the offset, degC
+OFFSET_SD = 2.0
+
+
+class SurfaceIR(Observation):
+    """The infrared surface temperature: the model's top node plus ``ir_offset``, sd ``sigma``."""
+
+    name = "surface_ir"
+    labels = ["IR"]
+
+    def __init__(self, meas, sigma: float):
+        if COLUMN not in meas.extras:
+            raise ValueError(f"ir_sigma is set but the data have no {COLUMN!r} column (in the "
+                             "case CSV or the [data] extras CSV)")
+        if meas.T_top is not None:
+            raise ValueError(f"{COLUMN} needs the surface energy balance at the top (model.top = "
+                             "'surface'): with a measured top the top node is a buried sensor")
+        if not sigma > 0:
+            raise ValueError(f"ir_sigma must be > 0, got {sigma!r}")
+        self.sigma = float(sigma)
+        self.data = np.asarray(meas.extras[COLUMN], float)[1:, None]  # (n_obs - 1, 1)
+
+    def parameters(self) -> list:
+        return [Parameter("ir_offset", 0.0, -20.0, 20.0,
+                          prior=TruncatedNormal(0.0, OFFSET_SD, -20.0, 20.0), unit="degC",
+                          description="infrared surface temperature minus the model's surface")]
+
+    def predict(self, model, T_nodes, coeffs, p):
+        return T_nodes[..., :1] + np.asarray(p["ir_offset"], float)[:, None, None]
+
+    def whiten(self, r):
+        return r.reshape(*r.shape[:-2], -1) / self.sigma
+
+    @property
+    def logdet(self) -> float:
+        return self.size * np.log(self.sigma**2)
+
+    def marginal_sd(self):
+        return np.full(self.data.shape, self.sigma)
+
+    def vjp(self, model, pred, r, z, ok, T_nodes, coeffs, p, gT):
+        g = -np.where(ok[:, None, None], r, 0.0)[..., 0] / self.sigma**2  # (n_sets, n_obs - 1)
+        gT = np.zeros(T_nodes.shape) if gT is None else gT
+        gT[:, 1:, 0] += g
+        return gT, {"ir_offset": np.sum(g, axis=1)}

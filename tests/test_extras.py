@@ -1,0 +1,116 @@
+"""Extras (T_surf_IR, RH, radiation components) from a second CSV merged on time."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from pavement_mcmc.data import ConfigError, DataError, load_case, read_csv_case
+from pavement_mcmc.posterior import build_problem
+
+HEADER = "time,T_air,q_net,T_0cm,T_2cm,T_5cm"
+N = 12
+
+
+def _stamp(minutes: int) -> str:
+    return f"2004-06-06T{minutes // 60:02d}:{minutes % 60:02d}:00Z"
+
+
+def _case_csv(tmp_path: Path) -> Path:
+    rows = [f"{_stamp(30 * i)},{15 + 0.1 * i:.2f},{-80 + 10 * i:.1f},{15 + 0.2 * i:.2f},"
+            f"{15.5 + 0.1 * i:.2f},{16.0 + 0.05 * i:.2f}" for i in range(N)]
+    path = tmp_path / "case.csv"
+    path.write_text(HEADER + "\n" + "\n".join(rows) + "\n")
+    return path
+
+
+def _extras_csv(tmp_path: Path, step: int = 15, shift: int = 0, n: int = 2 * N + 4,
+                header: str = "time,T_surf_IR,SW_in,WS_2m") -> Path:
+    """Rows every ``step`` minutes from ``shift``; T_surf_IR = 20 + minute / 60, SW_in = minute."""
+    rows = []
+    for i in range(n):
+        m = shift + step * i
+        rows.append(f"{_stamp(m)},{20 + m / 60:.4f},{m:.1f},1.0")
+    path = tmp_path / "extras.csv"
+    path.write_text(header + "\n" + "\n".join(rows) + "\n")
+    return path
+
+
+def test_merged_on_the_case_times(tmp_path):
+    """A finer and longer extras file gives its values at the case's window times, read-only."""
+    m = read_csv_case(_case_csv(tmp_path), sigma=0.1, extras=_extras_csv(tmp_path),
+                      window_hours=(1.0, 4.0))
+    minutes = 60 + m.t / 60
+    np.testing.assert_allclose(m.extras["T_surf_IR"], 20 + minutes / 60, atol=1e-4)
+    np.testing.assert_allclose(m.extras["SW_in"], minutes)
+    assert set(m.extras) == {"T_surf_IR", "SW_in"}  # WS_2m is not an extras role
+    with pytest.raises((TypeError, ValueError)):
+        m.extras["SW_in"][0] = 1.0
+    sub = m.select_rows([0, 2, 4])
+    np.testing.assert_array_equal(sub.extras["SW_in"], m.extras["SW_in"][[0, 2, 4]])
+    plain = read_csv_case(_case_csv(tmp_path), sigma=0.1, window_hours=(1.0, 4.0))
+    assert plain.extras == {} and plain.data_hash() != m.data_hash()
+
+
+def test_misaligned_times_refused(tmp_path):
+    """A clock shift of 7 min: no extras row at the case's times -> the first missing time named."""
+    with pytest.raises(DataError, match=r"extras\.csv, column 'time': no row at "
+                                        r"2004-06-06T00:00:00Z.*12 of the window's 12 times"):
+        read_csv_case(_case_csv(tmp_path), sigma=0.1, extras=_extras_csv(tmp_path, shift=7))
+
+
+def test_extras_ending_early_refused(tmp_path):
+    with pytest.raises(DataError, match=r"no row at 2004-06-06T05:00:00Z.*2 of the window"):
+        read_csv_case(_case_csv(tmp_path), sigma=0.1, extras=_extras_csv(tmp_path, step=30, n=N - 2))
+
+
+def test_extras_file_without_extras_columns_refused(tmp_path):
+    path = _extras_csv(tmp_path, header="time,IR_skin,SW_down,WS_2m")
+    with pytest.raises(DataError, match=r"no extras column in the file.*T_surf_IR"):
+        read_csv_case(_case_csv(tmp_path), sigma=0.1, extras=path)
+    m = read_csv_case(_case_csv(tmp_path), sigma=0.1, extras=path,  # a rename maps it
+                      columns={"IR_skin": "T_surf_IR"})
+    assert set(m.extras) == {"T_surf_IR"}
+
+
+def test_role_in_both_files_refused(tmp_path):
+    case = _case_csv(tmp_path)
+    lines = case.read_text().splitlines()
+    case.write_text("\n".join([lines[0] + ",SW_in"] + [ln + ",5" for ln in lines[1:]]) + "\n")
+    with pytest.raises(DataError, match=r"'SW_in' is also a column of .*case\.csv"):
+        read_csv_case(case, sigma=0.1, extras=_extras_csv(tmp_path))
+
+
+def _toml(tmp_path: Path, extra: str) -> Path:
+    _case_csv(tmp_path)
+    path = tmp_path / "case.toml"
+    path.write_text(f'[data]\ncsv = "case.csv"\nsigma = 0.1\n{extra}\n')
+    return path
+
+
+def test_ir_sigma_without_the_column_is_a_config_error(tmp_path):
+    _extras_csv(tmp_path, header="time,RH,SW_in,WS_2m")
+    cfg = load_case(_toml(tmp_path, 'extras = "extras.csv"\nir_sigma = 0.5'))
+    assert set(cfg.measurements.extras) == {"RH", "SW_in"}
+    with pytest.raises(ConfigError, match=r"case\.toml: ir_sigma is set but the data have no "
+                                          r"'T_surf_IR' column"):
+        build_problem(cfg)
+
+
+def test_extras_file_not_found(tmp_path):
+    with pytest.raises(ConfigError, match=r"data\.extras = 'nope\.csv': file not found"):
+        load_case(_toml(tmp_path, 'extras = "nope.csv"'))
+
+
+def test_ir_stream_adds_its_offset_and_blob(tmp_path):
+    _extras_csv(tmp_path)
+    cfg = load_case(_toml(tmp_path, 'extras = "extras.csv"\nir_sigma = 0.5'))
+    pb = build_problem(cfg)
+    assert pb.space.free[-1] == "ir_offset"
+    assert pb.posterior.blob_names[-1] == "rmse_IR"
+    assert pb.posterior.n_whitened == 3 * (N - 1)  # T_0cm, T_2cm (T_5cm: the bottom), IR
+    with pytest.raises(ConfigError, match="measured top"):
+        build_problem(load_case(_toml(tmp_path, 'extras = "extras.csv"\nir_sigma = 0.5\n'
+                                                '[model]\ntop = "measured"')))
