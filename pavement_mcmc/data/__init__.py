@@ -5,7 +5,9 @@
   sensors; :mod:`.checks`: :class:`DataError` and the row-level checks (times, window, cells,
   ranges);
 - :mod:`.case`: :func:`load_case` (TOML -> :class:`CaseConfig`), overrides and the run record;
-  :mod:`.schema`: the TOML's keys, :class:`ConfigError` and their validation.
+  :mod:`.schema`: the TOML's keys, :class:`ConfigError` and their validation;
+- :mod:`.toml_writer`: the one TOML writer; :mod:`.plugins`: the one plugin loader
+  (:class:`~.plugins.Registry`) of extensions, samplers and twin effects.
 """
 
 from .case import CaseConfig, dump_config, load_case, merge_overrides, parse_set
