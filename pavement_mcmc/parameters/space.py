@@ -143,6 +143,18 @@ class ParameterSpace:
         hi = np.array([self.params[n].upper for n in self.free])
         return lo, hi
 
+    def start_vector(self, values: dict[str, float] | None = None) -> np.ndarray:
+        """Free-parameter vector ``(n_free,)`` of ``values`` by name (others, and non-finite
+        values, at the parameter's ``value``), moved strictly inside the bounds by 1e-6 of their
+        span: where an optimiser or a sampler starts."""
+        lo, hi = self.bounds()
+        x = self.initial().astype(float)
+        for i, n in enumerate(self.free):
+            if values and n in values and np.isfinite(values[n]):
+                x[i] = float(values[n])
+        span = np.where(np.isfinite(hi - lo), hi - lo, np.abs(x) + 1.0)
+        return np.clip(x, lo + 1e-6 * span, hi - 1e-6 * span)
+
     def expand(self, theta: np.ndarray) -> dict[str, np.ndarray]:
         """Free-parameter matrix ``(n_sets, n_free)`` -> ``{name: (n_sets,)}`` for all parameters."""
         theta = np.atleast_2d(np.asarray(theta, float))
