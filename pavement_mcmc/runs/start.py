@@ -11,7 +11,7 @@ them kept. ``--add finer_h`` is not an extension but a finer ``[model] h`` setti
 
 from __future__ import annotations
 
-from ..data import load_case, merge_overrides
+from ..data import ConfigError, load_case, merge_overrides
 from ..physics.hbasis import FINER_H, finer_spec
 from ..posterior import build_problem, find_map
 from ..posterior.starts import best_start, extension_starts
@@ -19,7 +19,9 @@ from ..posterior.starts import best_start, extension_starts
 
 def resolve_finer_h(case, ov: dict, add: list[str]) -> tuple[dict, list[str]]:
     """``(overrides, add)`` with ``finer_h`` taken out of ``add`` and turned into the ``[model]
-    h`` override it stands for; ValueError if h is already per interval."""
+    h`` override it stands for (the one place ``finer_h`` is resolved: ``fit --add`` and
+    :func:`~pavement_mcmc.criticism.point.load_point`); ConfigError if h is already one value
+    per interval or given by an extension."""
     if FINER_H not in add:
         return ov, add
     rest = [a for a in add if a != FINER_H]
@@ -27,7 +29,7 @@ def resolve_finer_h(case, ov: dict, add: list[str]) -> tuple[dict, list[str]]:
     cfg = load_case(case, ov or None, additions=adds)
     spec = finer_spec(build_problem(cfg).model)
     if spec is None:
-        raise ValueError(f"--add {FINER_H}: h(t) is already one value per interval or given by an "
+        raise ConfigError(f"--add {FINER_H}: h(t) is already one value per interval or given by an "
                          "extension; there is no finer h to fit")
     return merge_overrides(ov, {"model": {"h": spec}}), rest
 
