@@ -79,11 +79,10 @@ class PriorResiduals:
                             strict=True))
         col = {n: i for i, n in enumerate(free)}
         smooth = []
-        for jp in space.joint_priors:
-            if isinstance(jp, GMRFSmoothness) and all(n in col for n in jp.names):
-                g = jp.gamma_name
-                smooth.append((np.array([col[n] for n in jp.names]), col.get(g),
-                               float(space[g].value)))
+        jp = space.smoothness()
+        if jp is not None and all(n in col for n in jp.names):
+            g = jp.gamma_name
+            smooth.append((np.array([col[n] for n in jp.names]), col.get(g), float(space[g].value)))
         return cls(cols, mu, sd, tuple(smooth))
 
     def __call__(self, theta: np.ndarray, gamma: float | None = None) -> np.ndarray:
@@ -142,6 +141,11 @@ class ParameterSpace:
         lo = np.array([self.params[n].lower for n in self.free])
         hi = np.array([self.params[n].upper for n in self.free])
         return lo, hi
+
+    def smoothness(self) -> GMRFSmoothness | None:
+        """The smoothness (GMRF) prior on h(t)'s pieces, with its precision ``gamma_name``, or
+        None: the one place the joint priors are searched for it."""
+        return next((jp for jp in self.joint_priors if isinstance(jp, GMRFSmoothness)), None)
 
     def start_vector(self, values: dict[str, float] | None = None) -> np.ndarray:
         """Free-parameter vector ``(n_free,)`` of ``values`` by name (others, and non-finite
