@@ -3,11 +3,11 @@
 Every plug-in point of the package (physics extensions, samplers, the twin simulator's hidden
 effects) keeps one :class:`Registry` of subclasses of its base class. It lives in the first
 step of the pipeline so every later step, the independent twin simulator included, can use it
-without importing anything downstream.
+without importing anything downstream::
 
->>> reg = Registry(Base, "widget")          # doctest: +SKIP
->>> reg.register(MyWidget)                  # or @reg.register on the class
->>> reg.get("mywidget"), reg.get("my_pkg.mod:Other")
+    widgets = Registry(Widget, "widget")
+    widgets.register(MyWidget)              # or @widgets.register on the class
+    widgets.get("mywidget"), widgets.get("my_pkg.mod:Other"), widgets.get(MyWidget)
 """
 
 from __future__ import annotations
