@@ -12,7 +12,6 @@ import sys
 from pathlib import Path
 
 from ..criticism.entries import DATA_THRESHOLD
-from ..criticism.point import load_point
 from ..criticism.ranking import finer_h_spec
 from ..physics.hbasis import FINER_H
 from .common import add_json_flag, emit
@@ -145,6 +144,7 @@ def run_guards(path: str) -> list:
 def run(args) -> int:
     from ..criticism import diagnose
     from ..criticism.guards import map_vs_sampled, sampled_sd
+    from ..criticism.point import load_point
 
     guards = run_guards(args.run)
     refuse = [g for g in guards if g.level == "refuse"]

@@ -7,8 +7,6 @@ from pathlib import Path
 
 from ..data import load_case
 from ..posterior import build_problem
-from ..runs import point_estimate
-from ..runs.start import resolve_finer_h
 from .fitting import refit
 
 
@@ -20,6 +18,9 @@ def load_point(path: str | Path, statistic: str = "mean"):
     resolved as ``fit --add finer_h`` does (:func:`~pavement_mcmc.runs.start.resolve_finer_h`:
     a :class:`~pavement_mcmc.data.ConfigError` if h is already one value per interval).
     """
+    from ..runs import point_estimate  # runs (h5py, the samplers) only when a point is loaded
+    from ..runs.start import resolve_finer_h
+
     base, *added = str(path).split("+")
     pth = Path(base)
     if pth.suffix == ".toml":
