@@ -80,3 +80,32 @@ def test_refit_and_ledger_fall(problem):
     d = led.deltas()[1]
     assert d["rmse"] < 0 and d["lag1"] < 0
     assert "two_layer" in led.text()
+
+
+def test_a_diagnosis_analyses_its_point_once(problem, monkeypatch):
+    """diagnose() computed the residual report of the point estimate, then the ranking computed
+    it again; the ranking now takes the diagnosis' report (same numbers, one analysis)."""
+    import importlib
+
+    from pavement_mcmc.criticism import diagnose
+
+    dmod = importlib.import_module("pavement_mcmc.criticism.diagnose")  # the name is the function
+    rmod = importlib.import_module("pavement_mcmc.criticism.ranking")
+
+    calls = []
+
+    def counted(module):
+        real = module.analyse_point
+
+        def wrapper(pb, values):
+            calls.append((pb, dict(values)))
+            return real(pb, values)
+
+        monkeypatch.setattr(module, "analyse_point", wrapper)
+
+    counted(dmod)
+    counted(rmod)
+    point = refit(problem).values()
+    dx = diagnose(problem, point, candidates=["sensor_bias"], holdout=False)
+    assert sum(pb is problem and v == point for pb, v in calls) == 1
+    assert dx.ranking.residuals is dx.residuals

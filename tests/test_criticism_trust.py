@@ -218,7 +218,8 @@ def test_a_kappa_t_twin_ranks_conductivity_temperature_over_sensor_bias(tmp_path
 
 def test_a_finer_h_verdict_prints_the_config_change_and_the_case_route_works():
     """diagnose named finer_h but printed no next step, and --add finer_h was refused."""
-    from pavement_mcmc.cli.diagnose import load_point, next_step
+    from pavement_mcmc.cli.diagnose import next_step
+    from pavement_mcmc.criticism.point import load_point
 
     problem = build_problem(load_case("runs/caseA.toml"))
     rk = rank_missing_effects(problem, refit(problem).values(), ["finer_h"], holdout=False)

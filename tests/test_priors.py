@@ -131,3 +131,24 @@ def test_log_prior_gradient_matches_finite_differences():
         np.testing.assert_allclose(g[:, j], fd, rtol=1e-6, atol=1e-6)
     # without the joint prior: only the univariate terms (h has flat priors)
     assert np.all(space.grad_log_prior(theta, joint=False)[:, 4:] == 0.0)
+
+
+def test_the_smoothness_prior_is_found_in_one_place():
+    """``ParameterSpace.smoothness`` is what the MAP, the marginal (gamma integrated out), the
+    prior residuals and the sensitivity's hyperparameters all read: they agree on Case C's
+    space, and with gamma fixed the marginal route is off while the prior rows stay."""
+    from pavement_mcmc.posterior import gmrf_of
+
+    names = ("h_1", "h_2", "h_3")
+    params = [Parameter("kappa", 1.3, 0.0, 50.0), Parameter("gamma", 1.7, 0.0, 1e4)]
+    params += [Parameter(n, 10.0, 0.0, 500.0, group="h") for n in names]
+    gmrf = GMRFSmoothness(names, "gamma")
+    space = ParameterSpace(params, [gmrf])
+    assert space.smoothness() is gmrf and ParameterSpace(params).smoothness() is None
+    assert gmrf_of(space) == ("gamma", list(names))
+    rows = space.prior_residuals()
+    theta = np.array([[1.3, 4.0, 10.0, 12.0, 9.0]])
+    np.testing.assert_allclose(rows(theta), [[2.0 * 2.0, 2.0 * -3.0]])  # sqrt(gamma) D h
+    fixed = space.configure({"gamma": {"vary": False, "value": 9.0}})
+    assert gmrf_of(fixed) is None
+    np.testing.assert_allclose(fixed.prior_residuals()(theta[:, [0, 2, 3, 4]]), [[3.0 * 2.0, -9.0]])

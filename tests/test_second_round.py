@@ -18,8 +18,8 @@ import json
 import pytest
 from test_hidden_effects import CASE, scaled, true_rmse
 
-from pavement_mcmc.cli.diagnose import load_point
 from pavement_mcmc.criticism import diagnose
+from pavement_mcmc.criticism.point import load_point
 from pavement_mcmc.criticism.ranking import FINER_H
 from pavement_mcmc.data import load_case
 from pavement_mcmc.physics import extension_names

@@ -194,3 +194,24 @@ def test_lagged_et_closure_refuses_a_factor_near_one():
     spring = replace(BASE, climate="spring", effects={"evapotranspiration": {"et_alpha": 1.26}})
     _, truth = simulate(spring)
     assert truth.q_et.max() > 50.0
+
+
+def test_twin_effects_are_small_registered_classes():
+    """Every hidden effect is a :class:`TwinEffect` found by name (like the catalogue's
+    extensions): its defaults pass its own checks, its group is the constant it is listed in,
+    and a second class under a taken name is refused."""
+    from pavement_mcmc.synthetic import TwinEffect, register_twin_effect, twin_effect
+    from pavement_mcmc.synthetic.effects import ALL_EFFECTS, EFFECTS, OFF_CATALOGUE_EFFECTS
+
+    groups = {"catalogue": EFFECTS, "off_catalogue": OFF_CATALOGUE_EFFECTS}
+    for name in ALL_EFFECTS:
+        effect = twin_effect(name)
+        assert isinstance(effect, TwinEffect) and effect.name == name
+        assert name in groups.get(effect.group, ("surface_layer", "evapotranspiration"))
+        p = effect.defaults(1.2, 1.5e6, (0, 1, 2, 3, 4), 5.0)
+        assert effect.bad(p) is None
+    assert twin_effect("two_layer").bad({"d_layer": 0.02, "kappa2": -1.0, "C2": 1e6})
+    with pytest.raises(ValueError, match="a hidden effect named 'shading' is already registered"):
+        register_twin_effect(type("Shade2", (TwinEffect,), {"name": "shading"}))
+    with pytest.raises(ValueError, match="valid effects: two_layer"):
+        twin_effect("shadow")

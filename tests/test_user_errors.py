@@ -74,3 +74,16 @@ def test_cli_error_types_are_the_projects_own():
 
     for cls in (ConfigError, DataError, RunError, RunNotFound, StoreBusy, StoreMismatch):
         assert issubclass(cls, UserError)
+
+
+@pytest.mark.parametrize("argv", [["diagnose", REPO / "runs" / "caseC.toml+finer_h", "--no-rank"],
+                                  ["fit", REPO / "runs" / "caseC.toml", "--add", "finer_h",
+                                   "--no-progress"]])
+def test_finer_h_on_an_h_per_interval_is_a_user_error(argv, tmp_path, capsys):
+    """``diagnose CASE+finer_h`` raised SystemExit past cli.main's UserError path and ``fit --add
+    finer_h`` a ValueError reported as a bug; both resolve finer_h in one place now and say so
+    in one line."""
+    out = ["--out", tmp_path / "run"] if argv[0] == "fit" else []
+    code, err = _err(capsys, [*argv, *out])
+    assert code == 2 and "already one value per interval" in err and "Traceback" not in err
+    assert not (tmp_path / "run").exists()

@@ -137,7 +137,8 @@ def default_names(space, model=None) -> list[str]:
     """Free parameters that enter the predicted temperatures (hyperparameters such as ``gamma``,
     which only enter the prior, and a heat-flux plate's calibration factor, which only enters
     the plate's reading, are left out)."""
-    hyper = {getattr(jp, "gamma_name", None) for jp in space.joint_priors}
+    jp = space.smoothness()
+    hyper = set() if jp is None else {jp.gamma_name}
     hyper |= set(getattr(model, "plate_names", None) or [])
     return [n for n in space.free if n not in hyper]
 

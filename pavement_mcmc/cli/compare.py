@@ -36,8 +36,9 @@ def add_parser(sub) -> None:
 
 def run(args) -> int:
     from ..criticism import ledger
+    from ..criticism.point import load_point
     from ..plotting.criticism import plot_compare
-    from .diagnose import load_point, run_guards
+    from .diagnose import run_guards
 
     runs = []
     guards = [g for path in args.runs for g in run_guards(path)]

@@ -46,37 +46,6 @@ def add_parser(sub) -> None:
     p.set_defaults(func=run)
 
 
-def load_point(path: str, statistic: str = "mean"):
-    """``(problem, values, how, label)`` from a run directory or a case TOML.
-
-    ``CASE.toml+ext1+ext2`` adds extensions to the case (MAP fit only; for a sampled run use
-    ``pavement-mcmc fit CASE.toml --add ext1 --out DIR``).
-    """
-    base, *added = str(path).split("+")
-    pth = Path(base)
-    if pth.suffix == ".toml":
-        from ..criticism import refit
-        from ..data import load_case
-        from ..posterior import build_problem
-
-        cfg = load_case(pth)
-        exts = list(cfg.model.get("extensions", [])) + [a for a in added if a != FINER_H]
-        problem = build_problem(cfg, extensions=exts)
-        if FINER_H in added:  # not an extension: a finer [model] h
-            from ..physics.hbasis import finer_spec
-
-            spec = finer_spec(problem.model)
-            if spec is None:
-                raise SystemExit(f"{base}+{FINER_H}: h(t) is already one value per interval")
-            problem = build_problem(cfg, extensions=exts, h_spec=spec)
-        label = cfg.name + "".join(f"+{a}" for a in added)
-        return problem, refit(problem).values(), "MAP fit", label
-    from ..runs import point_estimate
-
-    problem, values = point_estimate(pth, statistic)
-    return problem, values, f"posterior {statistic}", pth.name
-
-
 def _text(dx, how: str, label: str) -> str:
     rep = dx.residuals
     lines = [
@@ -175,6 +144,7 @@ def run_guards(path: str) -> list:
 def run(args) -> int:
     from ..criticism import diagnose
     from ..criticism.guards import map_vs_sampled, sampled_sd
+    from ..criticism.point import load_point
 
     guards = run_guards(args.run)
     refuse = [g for g in guards if g.level == "refuse"]

@@ -8,8 +8,8 @@ from pathlib import Path
 
 import numpy as np
 
-from .common import add_json_flag, emit
-from .simulate import add_set_option, describe_values, load_problem
+from .common import add_json_flag, add_set_option, emit, split_assignments
+from .simulate import describe_values
 
 HELP = "sensitivity coefficients p dT/dp and identifiability (parameter correlations) at a point"
 
@@ -35,8 +35,9 @@ def add_parser(sub) -> None:
 def run(args) -> int:
     from ..analysis.sensitivity import default_names, identifiability, reduced_sensitivity
     from ..plotting import plot_identifiability, plot_sensitivity
+    from ..runs.case_at import problem_at
 
-    problem, values = load_problem(args.case, args.assign)
+    problem, values = problem_at(args.case, *split_assignments(args.assign))
     names = default_names(problem.space, problem.model)
     sens = reduced_sensitivity(problem.model, values, names, rel_step=args.rel_step,
                                space=problem.space)

@@ -12,7 +12,6 @@ from pathlib import Path
 
 import numpy as np
 
-from ..data.errors import UserError
 from ..data.times import times_after
 from .common import add_json_flag, add_set_option, emit, split_assignments
 
@@ -32,20 +31,6 @@ def add_parser(sub) -> None:
     p.add_argument("--out", help="output directory (default: <case dir>/<name>_simulate)")
     add_json_flag(p)
     p.set_defaults(func=run)
-
-
-def load_problem(case: str, items: list[str]):
-    """Load a case with the ``--set`` items: ``(problem, values)``, every parameter's value."""
-    from ..data import load_case
-    from ..parameters import parameter_values
-    from ..posterior import build_problem
-
-    overrides, params = split_assignments(items)
-    problem = build_problem(load_case(case, overrides or None))
-    try:
-        return problem, parameter_values(problem.space, params)
-    except ValueError as err:  # an unknown name or a bad value given with --set
-        raise UserError(f"--set: {err}") from None
 
 
 def describe_values(values: dict[str, float], space) -> str:
@@ -76,8 +61,9 @@ def rmse_per_sensor(meas, pred: np.ndarray) -> dict[str, float]:
 
 def run(args) -> int:
     from ..plotting import plot_fit
+    from ..runs.case_at import problem_at
 
-    problem, values = load_problem(args.case, args.assign)
+    problem, values = problem_at(args.case, *split_assignments(args.assign))
     meas = problem.meas
     p = {k: np.array([v]) for k, v in values.items()}
     pred = problem.model.predict(p)[0]

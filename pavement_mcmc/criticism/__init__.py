@@ -15,6 +15,7 @@ Public API
 - :func:`~.ledger.ledger` -> :class:`~.ledger.Ledger` (compare runs);
 - :func:`~.holdout.leave_one_sensor_out` -> :class:`~.holdout.HoldOut`;
 - :func:`~.fitting.refit` -> :class:`~.fitting.Fit` (quick MAP refit);
+- :func:`~.point.load_point` -> the point estimate of a run folder or a case TOML to judge;
 """
 
 from __future__ import annotations
@@ -24,6 +25,7 @@ from .entries import Entry, Ranking
 from .fitting import Fit, refit
 from .holdout import HoldOut, leave_one_sensor_out
 from .ledger import Ledger, ledger
+from .point import load_point
 from .ranking import finer_h_spec, rank_missing_effects
 from .residuals import ResidualReport, analyse, analyse_point, noise_like, plain_signals
 from .unexplained import Unexplained
@@ -43,6 +45,7 @@ __all__ = [
     "finer_h_spec",
     "leave_one_sensor_out",
     "ledger",
+    "load_point",
     "noise_like",
     "plain_signals",
     "rank_missing_effects",

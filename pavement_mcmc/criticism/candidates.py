@@ -7,6 +7,7 @@ import numpy as np
 
 from ..physics.hbasis import finer_spec
 from ..posterior import build_problem
+from ..posterior.starts import best_start, extension_starts
 from .fitting import Fit, refit
 
 
@@ -73,11 +74,5 @@ def variant(problem, extensions, h_spec):
 
 def fit_extension(ref_problem, ref_fit: Fit, name: str, h_spec: dict) -> Fit:
     prob, ext = _candidate_problem(ref_problem, ref_fit, name, h_spec)
-    base_vals = ref_fit.values()
-    start = dict(base_vals)
-    null = ext.null_values(prob.meas) or {}
-    start.update(null)
-    starts = [start]
-    starts = [{**start, **s} for s in ext.start_values(prob.meas, base_vals)] or starts
-    fits = [refit(prob, s) for s in starts]
-    return min(fits, key=lambda f: f.objective)
+    starts = extension_starts([ext], prob.meas, ref_fit.values())
+    return best_start(lambda s: refit(prob, s), starts, score=lambda f: -f.objective)

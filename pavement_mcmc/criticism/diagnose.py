@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
-from ..physics.materials import check_values
+from ..physics.materials import check_values, declared_material
 from .energy import EnergyBalance, energy_balance
 from .ranking import Ranking, rank_missing_effects
 from .residuals import ResidualReport, analyse_point
@@ -63,12 +63,12 @@ def diagnose(
     rep = analyse_point(problem, values)
     space = problem.space
     h = [values[n] for n in space.free if space[n].group == "h" and n in values]
-    declared = problem.cfg.model.get("material") if hasattr(problem.cfg, "model") else None
+    declared = declared_material(problem)
     findings = check_values(values.get("kappa"), values.get("C"), h or None, declared)
     energy = None
     if not problem.model.top_measured:
         alarm = any(f.level == "alarm" and f.quantity in ("kappa", "C") for f in findings)
         energy = energy_balance(problem, values, top_fit=alarm or bool(problem.model.plates))
-    ranking = (rank_missing_effects(problem, values, candidates, holdout=holdout, energy=energy)
-               if rank else None)
+    ranking = (rank_missing_effects(problem, values, candidates, holdout=holdout, energy=energy,
+                                    report=rep) if rank else None)
     return Diagnosis(problem, values, rep, ranking, findings, energy)

@@ -23,7 +23,7 @@ import numpy as np
 
 from ..data import load_case, merge_overrides
 from ..physics import Extension
-from ..physics.materials import check_values
+from ..physics.materials import check_values, declared_material
 from ..posterior import build_problem
 from .fitting import refit
 
@@ -119,7 +119,7 @@ def energy_balance(problem, values: dict[str, float], *, top_fit: bool = True) -
     if top_fit and not model.top_measured and model.meas.n_sensors >= 2:
         top = _top_fit(problem)
     h = [vals[n] for n in space.free if space[n].group == "h"]
-    declared = problem.cfg.model.get("material") if hasattr(problem.cfg, "model") else None
+    declared = declared_material(problem)
     findings = check_values(kappa, C, h or None, declared)
     eb = EnergyBalance(G, share, kappa / C, kappa, top, plates, findings)
     eb.verdict = _verdict(eb)

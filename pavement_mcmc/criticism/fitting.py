@@ -79,17 +79,6 @@ def prior_penalty(space, theta: np.ndarray) -> float:
     return float(space.prior_residuals().penalty(np.asarray(theta, float)[None, :])[0])
 
 
-def start_vector(space, start: dict[str, float] | None) -> np.ndarray:
-    """Free-parameter vector from ``start`` (by name; others at their values), within bounds."""
-    lo, hi = space.bounds()
-    x = space.initial().astype(float)
-    for i, n in enumerate(space.free):
-        if start and n in start and np.isfinite(start[n]):
-            x[i] = float(start[n])
-    span = np.where(np.isfinite(hi - lo), hi - lo, np.abs(x) + 1.0)
-    return np.clip(x, lo + 1e-6 * span, hi - 1e-6 * span)
-
-
 def refit(problem, start: dict[str, float] | None = None, *, max_nfev: int = 100) -> Fit:
     """MAP refit of ``problem`` from ``start`` (a dict of values by name).
 
@@ -104,7 +93,7 @@ def refit(problem, start: dict[str, float] | None = None, *, max_nfev: int = 100
     Fit
     """
     post = problem.posterior
-    lap = find_map(post, start_vector(problem.space, start), max_nfev=max_nfev)
+    lap = find_map(post, problem.space.start_vector(start), max_nfev=max_nfev)
     theta = np.asarray(lap.theta, float)
     rs = post.data_residuals(theta[None, :])
     chi2 = float(np.sum(post.whiten(*rs) ** 2))

@@ -54,7 +54,7 @@ import numpy as np
 
 from ..physics import Extension, extension_names, get_extension
 from ..physics.hbasis import FINER_H
-from ..physics.materials import check_values
+from ..physics.materials import check_values, declared_material
 from .candidates import finer_h_spec, fit_extension, h_spec_of, h_start, variant
 from .entries import (
     DATA_THRESHOLD,
@@ -69,7 +69,7 @@ from .entries import (
 )
 from .fitting import Fit, refit
 from .holdout import leave_one_sensor_out
-from .residuals import analyse_point, noise_like, plain_signals
+from .residuals import ResidualReport, analyse_point, noise_like, plain_signals
 from .unexplained import unexplained
 from .verdict import make_verdict
 
@@ -180,6 +180,7 @@ def rank_missing_effects(
     threshold: float = THRESHOLD,
     holdout: bool = True,
     energy=None,
+    report: ResidualReport | None = None,
 ) -> Ranking:
     """Rank the catalogue's extensions (and a finer h(t)) by how much they would lower the misfit.
 
@@ -196,16 +197,18 @@ def rank_missing_effects(
     energy : the :class:`~.energy.EnergyBalance` of the point estimate, if known: when it says
         the surface boundary is wrong and the surface candidates score highest, the verdict
         names the surface energy balance even if no entry is claimed.
+    report : the residual report of ``values`` (:func:`~.residuals.analyse_point`), if known
+        (:func:`~.diagnose.diagnose` has it): not computed again.
 
     Returns
     -------
     Ranking
     """
     values = dict(values or problem.space.value_dict())
-    rep = analyse_point(problem, values)
+    rep = analyse_point(problem, values) if report is None else report
     patterns = plain_signals(rep)
     base = refit(problem, values)
-    declared = problem.cfg.model.get("material") if hasattr(problem.cfg, "model") else None
+    declared = declared_material(problem)
     findings = check_values(base.values().get("kappa"), base.values().get("C"), None, declared)
     impossible = _impossible(base, declared)
     present = {e.name for e in problem.model.extensions}

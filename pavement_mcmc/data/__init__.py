@@ -7,7 +7,9 @@
 - :mod:`.extras`: the optional named series (``T_surf_IR``, ``RH``, radiation components, LE,
   H) and the merge of a second CSV on time; :mod:`.fluxsite`: AmeriFlux / FLUXNET presets;
 - :mod:`.case`: :func:`load_case` (TOML -> :class:`CaseConfig`), overrides and the run record;
-  :mod:`.schema`: the TOML's keys, :class:`ConfigError` and their validation.
+  :mod:`.schema`: the TOML's keys, :class:`ConfigError` and their validation;
+- :mod:`.toml_writer`: the one TOML writer; :mod:`.plugins`: the one plugin loader
+  (:class:`~.plugins.Registry`) of extensions, samplers and twin effects.
 """
 
 from .case import CaseConfig, dump_config, load_case, merge_overrides, parse_set

@@ -79,11 +79,10 @@ class PriorResiduals:
                             strict=True))
         col = {n: i for i, n in enumerate(free)}
         smooth = []
-        for jp in space.joint_priors:
-            if isinstance(jp, GMRFSmoothness) and all(n in col for n in jp.names):
-                g = jp.gamma_name
-                smooth.append((np.array([col[n] for n in jp.names]), col.get(g),
-                               float(space[g].value)))
+        jp = space.smoothness()
+        if jp is not None and all(n in col for n in jp.names):
+            g = jp.gamma_name
+            smooth.append((np.array([col[n] for n in jp.names]), col.get(g), float(space[g].value)))
         return cls(cols, mu, sd, tuple(smooth))
 
     def __call__(self, theta: np.ndarray, gamma: float | None = None) -> np.ndarray:
@@ -142,6 +141,23 @@ class ParameterSpace:
         lo = np.array([self.params[n].lower for n in self.free])
         hi = np.array([self.params[n].upper for n in self.free])
         return lo, hi
+
+    def smoothness(self) -> GMRFSmoothness | None:
+        """The smoothness (GMRF) prior on h(t)'s pieces, with its precision ``gamma_name``, or
+        None: the one place the joint priors are searched for it."""
+        return next((jp for jp in self.joint_priors if isinstance(jp, GMRFSmoothness)), None)
+
+    def start_vector(self, values: dict[str, float] | None = None) -> np.ndarray:
+        """Free-parameter vector ``(n_free,)`` of ``values`` by name (others, and non-finite
+        values, at the parameter's ``value``), moved strictly inside the bounds by 1e-6 of their
+        span: where an optimiser or a sampler starts."""
+        lo, hi = self.bounds()
+        x = self.initial().astype(float)
+        for i, n in enumerate(self.free):
+            if values and n in values and np.isfinite(values[n]):
+                x[i] = float(values[n])
+        span = np.where(np.isfinite(hi - lo), hi - lo, np.abs(x) + 1.0)
+        return np.clip(x, lo + 1e-6 * span, hi - 1e-6 * span)
 
     def expand(self, theta: np.ndarray) -> dict[str, np.ndarray]:
         """Free-parameter matrix ``(n_sets, n_free)`` -> ``{name: (n_sets,)}`` for all parameters."""

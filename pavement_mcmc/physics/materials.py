@@ -101,6 +101,13 @@ def material(name: str | None) -> Material | None:
     return MATERIALS[name]
 
 
+def declared_material(problem) -> str | None:
+    """The material a problem's case declares (``[model] material``), None if it declares none
+    or has no case config."""
+    model = getattr(problem.cfg, "model", None)
+    return None if model is None else model.get("material")
+
+
 def check_values(kappa: float | None = None, C: float | None = None,
                  h: list[float] | None = None, declared: str | None = None) -> list[Finding]:
     """Findings for the ground's kappa and C (and their ratio) and for h values.

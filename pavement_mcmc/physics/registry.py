@@ -1,28 +1,23 @@
-"""Extensions by name: pick one by name, import one by ``module:Class``, or pass an instance."""
+"""Extensions by name: pick one by name, import one by ``module:Class``, or pass an instance
+(the package's one plugin loader, :class:`~pavement_mcmc.data.plugins.Registry`)."""
 
 from __future__ import annotations
 
-import importlib
-
+from ..data.plugins import Registry
 from .base import Extension
 
-_REGISTRY: dict[str, type[Extension]] = {}
+_EXTENSIONS: Registry[type[Extension]] = Registry(Extension, "extension")
 
 
 def register_extension(cls: type[Extension]) -> type[Extension]:
     """Class decorator: make ``cls`` selectable by its ``name`` in configs and ``--add``."""
-    if not (isinstance(cls, type) and issubclass(cls, Extension)):
-        raise TypeError(f"{cls!r} is not an Extension subclass")
-    if cls.name in _REGISTRY and _REGISTRY[cls.name] is not cls:
-        raise ValueError(f"an extension named {cls.name!r} is already registered")
-    _REGISTRY[cls.name] = cls
-    return cls
+    return _EXTENSIONS.register(cls)
 
 
 def extension_names() -> list[str]:
     """Names of the registered extensions (the shipped catalogue is registered when
     :mod:`pavement_mcmc.physics` is imported)."""
-    return sorted(_REGISTRY)
+    return _EXTENSIONS.names()
 
 
 def get_extension(spec) -> Extension:
@@ -32,19 +27,6 @@ def get_extension(spec) -> Extension:
     """
     if isinstance(spec, Extension):
         return spec
-    if isinstance(spec, type) and issubclass(spec, Extension):
-        return spec()
-    if not isinstance(spec, str):
+    if not isinstance(spec, str | type):
         raise TypeError(f"cannot make an extension from {spec!r}")
-    if ":" in spec:
-        mod, _, attr = spec.partition(":")
-        try:
-            cls = getattr(importlib.import_module(mod), attr)
-        except (ImportError, AttributeError) as err:
-            raise ValueError(f"cannot import extension {spec!r}: {err}") from None
-        return get_extension(cls)
-    names = extension_names()
-    if spec not in _REGISTRY:
-        raise ValueError(f"unknown extension {spec!r}; valid: {', '.join(names)} "
-                         "(or 'module:Class' for your own)")
-    return _REGISTRY[spec]()
+    return _EXTENSIONS.get(spec)()

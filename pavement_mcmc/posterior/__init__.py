@@ -7,7 +7,8 @@
 - :mod:`.input_noise`: noisy boundary, initial and forcing inputs integrated out of the likelihood;
 - :mod:`.problem`: :func:`build_problem`, a case config -> model, parameter space, posterior;
 - :mod:`.map`: the MAP by least squares and its Laplace approximation;
-- :mod:`.marginal`: the smoothness precision integrated out, and the marginal MAP.
+- :mod:`.marginal`: the smoothness precision integrated out, and the marginal MAP;
+- :mod:`.starts`: a MAP from several starts (an extended model's new parameters).
 """
 
 from .input_noise import InputNoise, input_jacobian

@@ -218,10 +218,8 @@ def find_map(posterior, theta0: np.ndarray | None = None, *, em_max_iter: int = 
     space = posterior.space
     free = space.free
     theta = np.asarray(space.initial() if theta0 is None else theta0, float).copy()
-    gname, h_names = None, None
-    for jp in space.joint_priors:
-        if getattr(jp, "gamma_name", None) is not None:
-            gname, h_names = jp.gamma_name, list(jp.names)
+    jp = space.smoothness()
+    gname, h_names = (None, None) if jp is None else (jp.gamma_name, list(jp.names))
     g_free = gname is not None and gname in free
     gi = free.index(gname) if g_free else None
     idx = np.array([i for i in range(len(free)) if i != gi], dtype=int)

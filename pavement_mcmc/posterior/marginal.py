@@ -152,11 +152,9 @@ class MarginalGMRF:
 
 def gmrf_of(space):
     """(gamma name, h names) of the free-gamma smoothness prior of ``space``, or None."""
-    free = space.free
-    for jp in space.joint_priors:
-        g = getattr(jp, "gamma_name", None)
-        if g is not None and g in free and all(n in free for n in jp.names):
-            return g, list(jp.names)
+    free, jp = space.free, space.smoothness()
+    if jp is not None and jp.gamma_name in free and all(n in free for n in jp.names):
+        return jp.gamma_name, list(jp.names)
     return None
 
 

@@ -4,50 +4,14 @@ the stopping rule), and what a resume must find unchanged (:func:`identity`, :fu
 from __future__ import annotations
 
 import json
-import math
 from pathlib import Path
-from typing import Any
 
 from ..data import dump_config
+from ..data.toml_writer import to_toml
 from .folder import RunFolder
 
 #: [sampler] keys that may change between a run and its resume (budgets, not the chain)
 BUDGET_KEYS = ("max_steps", "max_seconds", "ess_target")
-
-
-def _toml_value(v: Any) -> str:
-    if isinstance(v, bool):
-        return "true" if v else "false"
-    if isinstance(v, int):
-        return str(v)
-    if isinstance(v, float):
-        if math.isnan(v):
-            return "nan"
-        if math.isinf(v):
-            return "inf" if v > 0 else "-inf"
-        return repr(v)
-    if isinstance(v, str):
-        return json.dumps(v)
-    if isinstance(v, list | tuple):
-        return "[" + ", ".join(_toml_value(x) for x in v) + "]"
-    if isinstance(v, dict):
-        return "{" + ", ".join(f"{_toml_key(k)} = {_toml_value(x)}" for k, x in v.items()) + "}"
-    raise TypeError(f"cannot write {v!r} to TOML")
-
-
-def _toml_key(k: str) -> str:
-    bare = k.replace("_", "").replace("-", "").isalnum()
-    return k if bare else json.dumps(k)
-
-
-def to_toml(raw: dict) -> str:
-    """A JSON-like config dict as TOML (top-level tables as sections, deeper ones inline)."""
-    lines = [f"{_toml_key(k)} = {_toml_value(v)}" for k, v in raw.items() if not isinstance(v, dict)]
-    for k, v in raw.items():
-        if isinstance(v, dict):
-            lines += ["", f"[{_toml_key(k)}]"]
-            lines += [f"{_toml_key(kk)} = {_toml_value(vv)}" for kk, vv in v.items()]
-    return "\n".join(lines) + "\n"
 
 
 def identity(cfg) -> dict:

@@ -11,16 +11,17 @@ them kept. ``--add finer_h`` is not an extension but a finer ``[model] h`` setti
 
 from __future__ import annotations
 
-import numpy as np
-
-from ..data import load_case, merge_overrides
+from ..data import ConfigError, load_case, merge_overrides
 from ..physics.hbasis import FINER_H, finer_spec
 from ..posterior import build_problem, find_map
+from ..posterior.starts import best_start, extension_starts
 
 
 def resolve_finer_h(case, ov: dict, add: list[str]) -> tuple[dict, list[str]]:
     """``(overrides, add)`` with ``finer_h`` taken out of ``add`` and turned into the ``[model]
-    h`` override it stands for; ValueError if h is already per interval."""
+    h`` override it stands for (the one place ``finer_h`` is resolved: ``fit --add`` and
+    :func:`~pavement_mcmc.criticism.point.load_point`); ConfigError if h is already one value
+    per interval or given by an extension."""
     if FINER_H not in add:
         return ov, add
     rest = [a for a in add if a != FINER_H]
@@ -28,19 +29,9 @@ def resolve_finer_h(case, ov: dict, add: list[str]) -> tuple[dict, list[str]]:
     cfg = load_case(case, ov or None, additions=adds)
     spec = finer_spec(build_problem(cfg).model)
     if spec is None:
-        raise ValueError(f"--add {FINER_H}: h(t) is already one value per interval or given by an "
+        raise ConfigError(f"--add {FINER_H}: h(t) is already one value per interval or given by an "
                          "extension; there is no finer h to fit")
     return merge_overrides(ov, {"model": {"h": spec}}), rest
-
-
-def _vector(space, values: dict[str, float]) -> np.ndarray:
-    lo, hi = space.bounds()
-    x = space.initial().astype(float)
-    for i, n in enumerate(space.free):
-        if n in values and np.isfinite(values[n]):
-            x[i] = float(values[n])
-    span = np.where(np.isfinite(hi - lo), hi - lo, np.abs(x) + 1.0)
-    return np.clip(x, lo + 1e-6 * span, hi - 1e-6 * span)
 
 
 def map_start(problem, cfg, added: list[str]):
@@ -54,15 +45,7 @@ def map_start(problem, cfg, added: list[str]):
                          input_noise=problem.posterior.input_noise)
     lb = find_map(base.posterior)
     base_vals = {**base.space.value_dict(), **dict(zip(lb.names, lb.theta, strict=True))}
-    starts = [base_vals]
-    for ext in new:
-        null = ext.null_values(problem.meas) or {}
-        extra = ext.start_values(problem.meas, base_vals) or [{}]
-        starts = [{**s, **null, **v} for s in starts for v in extra]
-    best, best_lp = None, -np.inf
-    for s in starts:
-        lap = find_map(problem.posterior, _vector(problem.space, s))
-        lp = float(problem.posterior(lap.theta[None, :])[0][0])
-        if best is None or lp > best_lp:
-            best, best_lp = lap, lp
-    return best
+    post = problem.posterior
+    return best_start(lambda s: find_map(post, problem.space.start_vector(s)),
+                      extension_starts(new, problem.meas, base_vals),
+                      score=lambda lap: float(post(lap.theta[None, :])[0][0]))

@@ -10,7 +10,7 @@ import numpy as np
 
 from .. import diagnostics as dg
 from ..physics import LITERATURE
-from ..physics.materials import Finding, check_values
+from ..physics.materials import Finding, check_values, declared_material
 from ..posterior import Problem
 from .folder import RunFolder
 from .kept import KeptChain
@@ -101,7 +101,7 @@ def plausibility(problem: Problem, rows: list[dict]) -> list[Finding]:
     fixed = problem.space.value_dict()
     kappa, C = mean.get("kappa", fixed.get("kappa")), mean.get("C", fixed.get("C"))
     h = [v for k, v in mean.items() if problem.space[k].group == "h"]
-    declared = problem.cfg.model.get("material") if hasattr(problem.cfg, "model") else None
+    declared = declared_material(problem)
     return check_values(kappa, C, h or None, declared)
 
 

@@ -10,8 +10,7 @@ drives any of them through one store.
 
 from __future__ import annotations
 
-import importlib
-
+from ..data.plugins import Registry
 from .base import Block, Sampler
 from .ensemble import EmceeSampler
 from .fast import FastSampler
@@ -27,20 +26,16 @@ SAMPLERS: dict[str, type[Sampler]] = {
     "fast": FastSampler,
     "hmc": HMCSampler,
 }
+_SAMPLERS: Registry[type[Sampler]] = Registry(Sampler, "sampler", SAMPLERS)
 
 
 def register_sampler(cls: type[Sampler]) -> type[Sampler]:
     """Class decorator: make ``cls`` selectable by its ``name`` (``[sampler] kind = NAME``)."""
-    if not (isinstance(cls, type) and issubclass(cls, Sampler)):
-        raise TypeError(f"{cls!r} is not a Sampler subclass")
-    if cls.name in SAMPLERS and SAMPLERS[cls.name] is not cls:
-        raise ValueError(f"a sampler named {cls.name!r} is already registered")
-    SAMPLERS[cls.name] = cls
-    return cls
+    return _SAMPLERS.register(cls)
 
 
 def sampler_names() -> list[str]:
-    return sorted(SAMPLERS)
+    return _SAMPLERS.names()
 
 
 def sampler_class(kind) -> type[Sampler]:
@@ -48,21 +43,7 @@ def sampler_class(kind) -> type[Sampler]:
 
     Raises ``ValueError`` listing the valid names for an unknown ``kind``.
     """
-    if isinstance(kind, type) and issubclass(kind, Sampler):
-        return kind
-    if isinstance(kind, str) and ":" in kind:
-        mod, _, attr = kind.partition(":")
-        try:
-            cls = getattr(importlib.import_module(mod), attr)
-        except (ImportError, AttributeError) as err:
-            raise ValueError(f"cannot import sampler {kind!r}: {err}") from None
-        if not (isinstance(cls, type) and issubclass(cls, Sampler)):
-            raise ValueError(f"{kind!r} is not a pavement_mcmc.samplers.Sampler subclass")
-        return cls
-    if kind in SAMPLERS:
-        return SAMPLERS[kind]
-    raise ValueError(f"unknown sampler {kind!r}; valid: {', '.join(sampler_names())} "
-                     "(or 'module:Class' for your own)")
+    return _SAMPLERS.get(kind)
 
 
 def get_sampler(kind, posterior, n_chains: int | None = None, seed: int | None = None,

@@ -21,7 +21,10 @@ from .effects import (
     EFFECTS,
     NEW_CATALOGUE_EFFECTS,
     OFF_CATALOGUE_EFFECTS,
+    TwinEffect,
     default_effect,
+    register_twin_effect,
+    twin_effect,
 )
 from .io import to_measurements, truth_record, write_case
 from .simulate import (
@@ -43,12 +46,15 @@ __all__ = [
     "PAPER_H_KNOTS",
     "SyntheticSpec",
     "Truth",
+    "TwinEffect",
     "default_effect",
     "flux_columns",
+    "register_twin_effect",
     "resolved_grid",
     "simulate",
     "temperature_columns",
     "to_measurements",
     "truth_record",
+    "twin_effect",
     "write_case",
 ]

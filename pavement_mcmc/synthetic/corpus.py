@@ -30,7 +30,7 @@ import copy
 from dataclasses import dataclass, replace
 from pathlib import Path
 
-from . import _toml
+from ..data.toml_writer import to_toml
 from .effects import EFFECTS, NEW_CATALOGUE_EFFECTS, OFF_CATALOGUE_EFFECTS
 from .io import write_case
 from .simulate import PAPER_H_KNOTS, SyntheticSpec
@@ -330,7 +330,7 @@ def write_twin(twin: Twin, directory: str | Path) -> Path:
     write_case(twin.spec, directory, name=twin.name)
     path = directory / "case.toml"
     header = f"# Twin {twin.name!r} ({twin.category}); hidden effects: {', '.join(twin.hidden) or 'none'}\n"
-    path.write_text(header + _toml.dumps(case_document(twin)))
+    path.write_text(header + to_toml(case_document(twin)))
     return path
 
 

@@ -1,6 +1,9 @@
 """The hidden effects a twin dataset can carry, their parameters and realistic default strengths.
 
-Three groups (all selected the same way, by name in ``SyntheticSpec.effects``):
+Each effect is a small :class:`TwinEffect` class (its realistic defaults, the checks of its
+parameters), registered by name like the inversion's extensions are
+(:class:`~pavement_mcmc.data.plugins.Registry`); the simulator applies its physics by name. Three
+groups (all selected the same way, by name in ``SyntheticSpec.effects``):
 
 - :data:`EFFECTS`: the seven the inversion's extension catalogue
   (:mod:`pavement_mcmc.physics.catalogue`) models today, with its parameter names, units and
@@ -81,25 +84,7 @@ from collections.abc import Mapping
 
 import numpy as np
 
-EFFECTS = (
-    "two_layer",
-    "sensor_depth",
-    "sensor_bias",
-    "wind_convection",
-    "evaporation",
-    "conductivity_temperature",
-    "radiation_factor",
-)
-"""Names of the hidden effects the inversion's catalogue models today."""
-
-NEW_CATALOGUE_EFFECTS = ("surface_layer", "evapotranspiration")
-"""Effects with planned catalogue entries (the simulator uses different physics)."""
-
-OFF_CATALOGUE_EFFECTS = ("sensor_lag", "shading", "buried_source")
-"""Effects no catalogue entry models: a diagnosis should name none of its candidates."""
-
-ALL_EFFECTS = EFFECTS + NEW_CATALOGUE_EFFECTS + OFF_CATALOGUE_EFFECTS
-"""Every hidden effect the simulator can carry, in the order ``Truth.effects`` lists them."""
+from ..data.plugins import Registry
 
 DEFAULT_RAIN = ((9.0, 1.0, 4.0),)
 """Shower used when ``evaporation`` is on and no rain is given: (start h, duration h, mm)."""
@@ -123,6 +108,216 @@ def sensor_labels(depths_cm) -> list[str]:
     return [f"{d:g}cm" for d in depths_cm]
 
 
+class TwinEffect:
+    """A hidden effect of the twin simulator: its parameters' realistic defaults and checks.
+
+    A subclass sets ``name``, ``group`` (``"catalogue"``, ``"new_catalogue"`` or
+    ``"off_catalogue"``) and its ``default`` values (or overrides :meth:`defaults` when they
+    depend on the ground or the sensors); the other hooks do nothing by default.
+    Depths are in cm (``depths_cm``: the observed sensors, ``bottom_cm``: the bottom sensor).
+    """
+
+    name: str = ""
+    group: str = "catalogue"
+    default: dict[str, float] = {}
+
+    def defaults(self, kappa: float, C: float, depths_cm, bottom_cm: float) -> dict[str, float]:
+        """Parameter name -> realistic default value (kappa, C: the top ground's)."""
+        return dict(self.default)
+
+    def refuse(self, given: dict) -> str | None:
+        """Why the user-given parameters ``given`` cannot be taken (None: they can)."""
+        return None
+
+    def place(self, p: dict, depths_cm, bottom_cm: float) -> None:
+        """Check (ValueError) and adjust ``p`` in place against the sensor geometry."""
+
+    def bad(self, p: dict) -> str | None:
+        """What is out of range in the complete parameters ``p`` (None: nothing)."""
+        return None
+
+    def derive(self, p: dict) -> None:
+        """Add the recorded, derived parameters to ``p`` in place."""
+
+
+_TWIN_EFFECTS: Registry[type[TwinEffect]] = Registry(TwinEffect, "hidden effect")
+register_twin_effect = _TWIN_EFFECTS.register
+
+
+@register_twin_effect
+class TwoLayer(TwinEffect):
+    name = "two_layer"
+
+    def defaults(self, kappa, C, depths_cm, bottom_cm):
+        return {"d_layer": 0.02, "kappa2": 0.6 * kappa, "C2": 1.3 * C}
+
+    def bad(self, p):
+        ok = 0 < p["d_layer"] and p["kappa2"] > 0 and p["C2"] > 0
+        return None if ok else "d_layer, kappa2 and C2 must be positive"
+
+
+@register_twin_effect
+class SensorDepth(TwinEffect):
+    name = "sensor_depth"
+
+    def defaults(self, kappa, C, depths_cm, bottom_cm):
+        labels = sensor_labels(depths_cm)
+        pattern = np.resize(_OFFSET_PATTERN, len(labels))
+        return {f"dz_{lab}": float(v) for lab, v in zip(labels, pattern, strict=True)}
+
+    def place(self, p, depths_cm, bottom_cm):  # never above the surface, always above the bottom
+        for d, key in zip(depths_cm, p, strict=True):
+            p[key] = max(p[key], -d / 100.0)
+            if d / 100.0 + p[key] >= bottom_cm / 100.0:
+                raise ValueError(f"effect 'sensor_depth': {key} puts the sensor below the bottom")
+
+
+@register_twin_effect
+class SensorBias(TwinEffect):
+    name = "sensor_bias"
+
+    def defaults(self, kappa, C, depths_cm, bottom_cm):
+        labels = sensor_labels(depths_cm)
+        return {f"bias_{lab}": 0.5 if i == len(labels) // 2 else 0.0 for i, lab in enumerate(labels)}
+
+
+@register_twin_effect
+class WindConvection(TwinEffect):
+    name = "wind_convection"
+    default = {"h_a": 4.0, "h_b": 3.0}
+
+
+@register_twin_effect
+class Evaporation(TwinEffect):
+    name = "evaporation"
+    default = {"evap_A": 30.0, "evap_tau": 3.0}
+
+    def bad(self, p):
+        return None if p["evap_A"] >= 0 and p["evap_tau"] > 0 else "evap_A must be >= 0 and evap_tau > 0"
+
+
+@register_twin_effect
+class ConductivityTemperature(TwinEffect):
+    name = "conductivity_temperature"
+    default = {"kappa_beta": -0.005}
+
+    def bad(self, p):
+        ok = abs(p["kappa_beta"]) < 0.02
+        return None if ok else "|kappa_beta| must be < 0.02 1/K (kappa would change sign within 0-70 degC)"
+
+
+@register_twin_effect
+class RadiationFactor(TwinEffect):
+    name = "radiation_factor"
+    default = {"rad_factor": 0.85}
+
+    def bad(self, p):
+        return None if p["rad_factor"] > 0 else "rad_factor must be positive"
+
+
+@register_twin_effect
+class SurfaceLayer(TwinEffect):
+    name = "surface_layer"
+    group = "new_catalogue"
+    default = {"layer_thickness": 0.015, "layer_kappa": 0.06, "layer_C": 0.3e6, "R_surface": 0.25}
+
+    def refuse(self, given):
+        if "R_surface" in given:
+            return ("R_surface is derived (layer_thickness / layer_kappa); give layer_thickness "
+                    "and layer_kappa instead")
+        return None
+
+    def bad(self, p):
+        ok = 0 < p["layer_thickness"] <= 0.2 and p["layer_kappa"] > 0 and p["layer_C"] > 0
+        return None if ok else "layer_thickness must be in (0, 0.2] m, layer_kappa and layer_C positive"
+
+    def derive(self, p):
+        p["R_surface"] = p["layer_thickness"] / p["layer_kappa"]
+
+
+@register_twin_effect
+class Evapotranspiration(TwinEffect):
+    name = "evapotranspiration"
+    group = "new_catalogue"
+    default = {"et_alpha": 1.0}
+
+    def bad(self, p):
+        ok = 0 <= p["et_alpha"] <= 1.3
+        return None if ok else "et_alpha must be in [0, 1.3] (Priestley-Taylor: 1.26 over wet ground)"
+
+
+@register_twin_effect
+class SensorLag(TwinEffect):
+    name = "sensor_lag"
+    group = "off_catalogue"
+
+    def defaults(self, kappa, C, depths_cm, bottom_cm):
+        return {"lag_sensor_cm": float(depths_cm[len(depths_cm) // 2]), "lag_minutes": 60.0}
+
+    def place(self, p, depths_cm, bottom_cm):
+        if not any(abs(p["lag_sensor_cm"] - d) < 1e-9 for d in depths_cm):
+            raise ValueError(
+                f"effect 'sensor_lag': lag_sensor_cm={p['lag_sensor_cm']:g} is not an observed "
+                f"sensor; valid: {', '.join(f'{d:g}' for d in depths_cm)}"
+            )
+
+    def bad(self, p):
+        return None if p["lag_minutes"] > 0 else "lag_minutes must be positive"
+
+
+@register_twin_effect
+class Shading(TwinEffect):
+    name = "shading"
+    group = "off_catalogue"
+    default = {"shade_fraction": 0.6, "shade_start": 13.5, "shade_end": 16.5}
+
+    def bad(self, p):
+        ok = 0 < p["shade_fraction"] <= 1 and 0 <= p["shade_start"] < p["shade_end"] <= 24
+        why = "shade_fraction must be in (0, 1] and 0 <= shade_start < shade_end <= 24 (clock hours)"
+        return None if ok else why
+
+
+@register_twin_effect
+class BuriedSource(TwinEffect):
+    name = "buried_source"
+    group = "off_catalogue"
+
+    def defaults(self, kappa, C, depths_cm, bottom_cm):
+        column = [*depths_cm, bottom_cm]
+        around = column[1:3] if len(depths_cm) >= 3 else column[-2:]
+        return {"source_flux": 50.0, "source_depth": float(np.mean(around)) / 100.0}
+
+    def place(self, p, depths_cm, bottom_cm):
+        if not 0 < p["source_depth"] < bottom_cm / 100.0:
+            raise ValueError(
+                f"effect 'buried_source': source_depth={p['source_depth']:g} m must lie "
+                f"between the surface and the bottom sensor ({bottom_cm / 100.0:g} m)"
+            )
+
+
+def _group(group: str) -> tuple[str, ...]:
+    return tuple(n for n, cls in _TWIN_EFFECTS.classes.items() if cls.group == group)
+
+
+EFFECTS = _group("catalogue")
+"""Names of the hidden effects the inversion's catalogue models today."""
+
+NEW_CATALOGUE_EFFECTS = _group("new_catalogue")
+"""Effects with planned catalogue entries (the simulator uses different physics)."""
+
+OFF_CATALOGUE_EFFECTS = _group("off_catalogue")
+"""Effects no catalogue entry models: a diagnosis should name none of its candidates."""
+
+ALL_EFFECTS = EFFECTS + NEW_CATALOGUE_EFFECTS + OFF_CATALOGUE_EFFECTS
+"""Every hidden effect the simulator can carry, in the order ``Truth.effects`` lists them."""
+
+
+def twin_effect(name: str) -> TwinEffect:
+    """The :class:`TwinEffect` called ``name``; ValueError naming the valid effects if none."""
+    check_name(name)
+    return _TWIN_EFFECTS.get(name)()
+
+
 def default_effect(
     name: str, kappa: float, C: float, depths_cm=(0, 1, 2, 3, 4), bottom_cm: float = 5.0
 ) -> dict:
@@ -140,34 +335,7 @@ def default_effect(
     -------
     dict of catalogue parameter name -> value (float).
     """
-    check_name(name)
-    labels = sensor_labels(depths_cm)
-    if name == "two_layer":
-        return {"d_layer": 0.02, "kappa2": 0.6 * kappa, "C2": 1.3 * C}
-    if name == "sensor_depth":
-        pattern = np.resize(_OFFSET_PATTERN, len(labels))
-        return {f"dz_{lab}": float(v) for lab, v in zip(labels, pattern, strict=True)}
-    if name == "sensor_bias":
-        return {f"bias_{lab}": 0.5 if i == len(labels) // 2 else 0.0 for i, lab in enumerate(labels)}
-    if name == "wind_convection":
-        return {"h_a": 4.0, "h_b": 3.0}
-    if name == "evaporation":
-        return {"evap_A": 30.0, "evap_tau": 3.0}
-    if name == "conductivity_temperature":
-        return {"kappa_beta": -0.005}
-    if name == "radiation_factor":
-        return {"rad_factor": 0.85}
-    if name == "surface_layer":
-        return {"layer_thickness": 0.015, "layer_kappa": 0.06, "layer_C": 0.3e6, "R_surface": 0.25}
-    if name == "evapotranspiration":
-        return {"et_alpha": 1.0}
-    if name == "sensor_lag":
-        return {"lag_sensor_cm": float(depths_cm[len(depths_cm) // 2]), "lag_minutes": 60.0}
-    if name == "shading":
-        return {"shade_fraction": 0.6, "shade_start": 13.5, "shade_end": 16.5}
-    # buried_source
-    around = [*depths_cm, bottom_cm][1:3] if len(depths_cm) >= 3 else [*depths_cm, bottom_cm][-2:]
-    return {"source_flux": 50.0, "source_depth": float(np.mean(around)) / 100.0}
+    return twin_effect(name).defaults(kappa, C, depths_cm, bottom_cm)
 
 
 def check_name(name: str) -> None:
@@ -198,62 +366,22 @@ def resolve_effects(
     for name in ALL_EFFECTS:
         if name not in effects:
             continue
-        params = default_effect(name, kappa, C, depths_cm, bottom_cm)
+        effect = twin_effect(name)
+        params = effect.defaults(kappa, C, depths_cm, bottom_cm)
         given = dict(effects[name] or {})
-        if name == "surface_layer" and "R_surface" in given:
-            raise ValueError(
-                "effect 'surface_layer': R_surface is derived (layer_thickness / layer_kappa); "
-                "give layer_thickness and layer_kappa instead"
-            )
+        refused = effect.refuse(given)
+        if refused:
+            raise ValueError(f"effect {name!r}: {refused}")
         unknown = set(given) - set(params)
         if unknown:
             raise ValueError(
                 f"effect {name!r}: unknown parameter(s) {sorted(unknown)}; valid: {list(params)}"
             )
         params.update({k: float(v) for k, v in given.items()})
-        if name == "sensor_lag" and not any(abs(params["lag_sensor_cm"] - d) < 1e-9 for d in depths_cm):
-            raise ValueError(
-                f"effect 'sensor_lag': lag_sensor_cm={params['lag_sensor_cm']:g} is not an observed "
-                f"sensor; valid: {', '.join(f'{d:g}' for d in depths_cm)}"
-            )
-        if name == "buried_source" and not 0 < params["source_depth"] < bottom_cm / 100.0:
-            raise ValueError(
-                f"effect 'buried_source': source_depth={params['source_depth']:g} m must lie "
-                f"between the surface and the bottom sensor ({bottom_cm / 100.0:g} m)"
-            )
-        if name == "sensor_depth":  # never above the surface, always above the bottom sensor
-            for d, key in zip(depths_cm, params, strict=True):
-                params[key] = max(params[key], -d / 100.0)
-                if d / 100.0 + params[key] >= bottom_cm / 100.0:
-                    raise ValueError(f"effect 'sensor_depth': {key} puts the sensor below the bottom")
-        _check_ranges(name, params)
-        if name == "surface_layer":
-            params["R_surface"] = params["layer_thickness"] / params["layer_kappa"]
+        effect.place(params, depths_cm, bottom_cm)
+        bad = effect.bad(params)
+        if bad:
+            raise ValueError(f"effect {name!r}: {bad}")
+        effect.derive(params)
         out[name] = params
     return out
-
-
-def _check_ranges(name: str, p: dict) -> None:
-    bad = None
-    if name == "two_layer" and not (0 < p["d_layer"] and p["kappa2"] > 0 and p["C2"] > 0):
-        bad = "d_layer, kappa2 and C2 must be positive"
-    elif name == "evaporation" and not (p["evap_A"] >= 0 and p["evap_tau"] > 0):
-        bad = "evap_A must be >= 0 and evap_tau > 0"
-    elif name == "radiation_factor" and not p["rad_factor"] > 0:
-        bad = "rad_factor must be positive"
-    elif name == "conductivity_temperature" and not abs(p["kappa_beta"]) < 0.02:
-        bad = "|kappa_beta| must be < 0.02 1/K (kappa would change sign within 0-70 degC)"
-    elif name == "surface_layer" and not (
-        0 < p["layer_thickness"] <= 0.2 and p["layer_kappa"] > 0 and p["layer_C"] > 0
-    ):
-        bad = "layer_thickness must be in (0, 0.2] m, layer_kappa and layer_C positive"
-    elif name == "evapotranspiration" and not 0 <= p["et_alpha"] <= 1.3:
-        bad = "et_alpha must be in [0, 1.3] (Priestley-Taylor: 1.26 over wet ground)"
-    elif name == "sensor_lag" and not p["lag_minutes"] > 0:
-        bad = "lag_minutes must be positive"
-    elif name == "shading" and not (
-        0 < p["shade_fraction"] <= 1 and 0 <= p["shade_start"] < p["shade_end"] <= 24
-    ):
-        bad = "shade_fraction must be in (0, 1] and 0 <= shade_start < shade_end <= 24 (clock hours)"
-    if bad:
-        raise ValueError(f"effect {name!r}: {bad}")

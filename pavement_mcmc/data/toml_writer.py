@@ -1,8 +1,10 @@
-"""A minimal TOML writer for case files (nested dicts of strings, numbers, booleans and lists).
+"""The package's one TOML writer (case files of twins, the run folder's ``case.toml``).
 
-Top-level dicts become ``[tables]``; inside a table a dict that holds further dicts becomes a
-sub-table (``[parameters.kappa]``) and one that does not an inline table
+Nested dicts of strings, numbers (``nan`` and ``±inf`` included: TOML 1.0 has them), booleans
+and lists. Top-level dicts become ``[tables]``; inside a table a dict that holds further dicts
+becomes a sub-table (``[parameters.kappa]``) and one that does not an inline table
 (``prior = { dist = "truncnormal", mean = 1.5, sd = 0.5 }``), the style of the shipped cases.
+:func:`tomllib.loads` of the text gives the document back.
 """
 
 from __future__ import annotations
@@ -10,6 +12,8 @@ from __future__ import annotations
 import json
 import math
 import re
+
+__all__ = ["to_toml"]
 
 _BARE_KEY = re.compile(r"^[A-Za-z0-9_-]+$")
 
@@ -24,8 +28,10 @@ def _value(value: object) -> str:
     if isinstance(value, int):
         return str(value)
     if isinstance(value, float):
-        if not math.isfinite(value):
-            raise ValueError(f"TOML cannot hold the number {value!r} here")
+        if math.isnan(value):
+            return "nan"
+        if math.isinf(value):
+            return "inf" if value > 0 else "-inf"
         return repr(value)
     if isinstance(value, str):
         return json.dumps(value)
@@ -49,7 +55,7 @@ def _table(lines: list[str], path: str, table: dict) -> None:
         _table(lines, f"{path}.{_key(k)}", v)
 
 
-def dumps(document: dict) -> str:
+def to_toml(document: dict) -> str:
     """TOML text of ``document`` (see the module docstring for the layout)."""
     lines = [f"{_key(k)} = {_value(v)}" for k, v in document.items() if not isinstance(v, dict)]
     for k, v in document.items():

@@ -1,0 +1,33 @@
+"""The point estimate a criticism judges: a stored run's posterior mean (or median), or the MAP
+of a case TOML, optionally with extensions (or ``finer_h``) added."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from ..data import load_case
+from ..posterior import build_problem
+from .fitting import refit
+
+
+def load_point(path: str | Path, statistic: str = "mean"):
+    """``(problem, values, how, label)`` from a run directory or a case TOML.
+
+    ``CASE.toml+ext1+ext2`` adds extensions to the case (MAP fit only; for a sampled run use
+    ``pavement-mcmc fit CASE.toml --add ext1 --out DIR``); ``+finer_h`` is a finer ``[model] h``,
+    resolved as ``fit --add finer_h`` does (:func:`~pavement_mcmc.runs.start.resolve_finer_h`:
+    a :class:`~pavement_mcmc.data.ConfigError` if h is already one value per interval).
+    """
+    from ..runs import point_estimate  # runs (h5py, the samplers) only when a point is loaded
+    from ..runs.start import resolve_finer_h
+
+    base, *added = str(path).split("+")
+    pth = Path(base)
+    if pth.suffix == ".toml":
+        ov, rest = resolve_finer_h(pth, {}, added)
+        cfg = load_case(pth, ov or None, additions={"model": {"extensions": rest}} if rest else None)
+        problem = build_problem(cfg)
+        label = cfg.name + "".join(f"+{a}" for a in added)
+        return problem, refit(problem).values(), "MAP fit", label
+    problem, values = point_estimate(pth, statistic)
+    return problem, values, f"posterior {statistic}", pth.name
