@@ -11,9 +11,9 @@ import numpy as np
 
 from ..data import RunError, RunNotFound, load_case, merge_overrides
 from ..posterior import build_problem
-from ..storage import HDF5Store
+from ..storage import HDF5Store, StoreWriteFailed
 from .casefile import store_meta
-from .fit import FitOutput, _finish, _run, _sampler_for
+from .fit import FitOutput, _finish, _run, _sampler_for, resume_hint
 from .loop import RunResult
 from .tables import plausibility, statistics_table
 from .threads import single_blas_thread
@@ -37,6 +37,8 @@ def stored_result(run_dir: Path) -> RunResult | None:
     if not f.is_file():
         return None
     rec = json.loads(f.read_text())
+    if rec.get("failed"):  # stopped on an error (a full disk): unfinished, resumable
+        return None
     kw = {fl.name: rec[fl.name] for fl in fields(RunResult) if fl.name in rec}
     for k in ("ess", "tau", "rhat"):
         if k in kw:
@@ -103,7 +105,10 @@ def resume(run_dir: str | Path, *, max_seconds: float | None = None, callback=No
                            "without converging; ask for more with --more-steps N")
         smp = _sampler_for(problem, cfg)
         smp.set_state(state)
-        res = _run(problem, smp, store, scfg, callback, max_seconds, min_steps)
+        try:
+            res = _run(problem, smp, store, scfg, callback, max_seconds, min_steps)
+        except StoreWriteFailed as err:
+            raise resume_hint(err, run_dir) from None
     if ess_target is not None:  # the new target is the run's rule from now on
         rec["overrides"] = overrides
         (run_dir / "config.json").write_text(json.dumps(rec, indent=2))
