@@ -7,16 +7,21 @@ existing cluster by address (``scheduler=`` or the standard ``DASK_SCHEDULER_ADD
 variable). A worker process that dies mid-unit is noticed by the Dask scheduler, which runs
 the unit again elsewhere (up to ``distributed.scheduler.allowed-failures`` times); a unit that
 raises is retried ``retries`` times (``Client.submit(retries=...)``). A unit that still fails
-is returned as a :class:`Failure` with its reason; it never stops the others.
+is returned as a :class:`Failure` with its reason; it never stops the others. A scheduler that
+goes away mid-batch (killed, its machine lost) stops the batch with :class:`SchedulerLost`: the
+units still out are not failures of their own, and running the batch again finishes them.
 """
 
 from __future__ import annotations
 
 import functools
+import logging
 import os
 from collections.abc import Callable, Iterable, Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass
+
+from ..data.errors import UserError
 
 #: the standard Dask environment variable naming an existing scheduler
 SCHEDULER_ENV = "DASK_SCHEDULER_ADDRESS"
@@ -33,6 +38,10 @@ class Failure:
 
     key: str
     reason: str
+
+
+class SchedulerLost(UserError, RuntimeError):
+    """The Dask scheduler went away during a batch; the units it still held did not run."""
 
 
 def default_workers() -> int:
@@ -53,8 +62,8 @@ def connect(scheduler: str | None = None, n_workers: int | None = None) -> Itera
 
     address = scheduler or os.environ.get(SCHEDULER_ENV)
     if address:
-        with Client(address) as client:
-            yield client
+        with _quiet("distributed.client"), Client(address) as client:
+            yield client  # a lost scheduler is told by map_units, not by Dask's log
         return
     n = int(n_workers or default_workers())
     with LocalCluster(n_workers=n, threads_per_worker=1, processes=True, dashboard_address=None,
@@ -99,14 +108,39 @@ def map_units(fn: Callable, units: Iterable, *, key: Callable = str, client=None
                for u, k in zip(units, keys)]
     index = {f.key: i for i, f in enumerate(futures)}
     out: list = [None] * len(units)
+    lost = []
     for fut in as_completed(futures):
         i = index[fut.key]
         if fut.status == "finished":
             out[i] = fut.result()
-        else:
+        elif fut.status == "error":
             err = fut.exception()
-            out[i] = Failure(keys[i], f"{type(err).__name__}: {err}")
+            why = (" (the worker running it died each time: out of memory?)"
+                   if type(err).__name__ == "KilledWorker" else "")
+            out[i] = Failure(keys[i], f"{type(err).__name__}: {err}{why}")
+        else:  # cancelled: the scheduler that held it went away
+            lost.append(keys[i])
+            continue
         fut.release()
         if on_done is not None:
             on_done(i, out[i])
+    if lost:
+        raise SchedulerLost(
+            f"the Dask scheduler {client.scheduler.address if client.scheduler else ''} went "
+            f"away during the batch: {len(units) - len(lost)} of {len(units)} units ended, "
+            f"{len(lost)} did not ({', '.join(lost[:3])}{', ...' if len(lost) > 3 else ''}); "
+            "run the batch again when a scheduler is up: ended units are read back, "
+            "interrupted ones resumed")
     return out
+
+
+@contextmanager
+def _quiet(name: str) -> Iterator[None]:
+    """Silence one logger for the duration (Dask logs each reconnection attempt as an error)."""
+    log = logging.getLogger(name)
+    level = log.level
+    log.setLevel(logging.CRITICAL + 1)
+    try:
+        yield
+    finally:
+        log.setLevel(level)

@@ -226,8 +226,8 @@ class Store(ABC):
                 # A writer two commits ahead may be rewriting our slot: retry; otherwise the
                 # store is really broken.
                 if self._read_commit()[2] == gen:
-                    raise self._damaged(f"{n_saved} committed steps could not be read "
-                                        f"({type(err).__name__}: {err})") from err
+                    raise self._damaged(f"its {n_saved} committed steps cannot be read "
+                                        f"({err})") from err
                 continue
             # The writer only rewrites a slot after a newer commit: unchanged generation => the
             # state we read is whole. Rows below n_saved are never rewritten.

@@ -32,12 +32,14 @@ from .integrity import (
     close_after_failure,
     creation_failed,
     full_digest,
+    hdf5_end_of_file,
     human_bytes,
     neutralise,
     system_reason,
     unreadable,
 )
 from .records import RunData, RunState, _dumps, _loads
+from .writer import _ABANDONED, _pid_alive, _writer_record
 
 
 def _h5py():
@@ -47,8 +49,6 @@ def _h5py():
 
 
 _ROWS = ("chain", "log_prob", "blobs", "accepted")
-#: run files this process gave up writing after a failed write: their writer is not alive
-_ABANDONED: set[str] = set()
 
 
 class HDF5Store(Store):
@@ -175,8 +175,8 @@ class HDF5Store(Store):
         except OSError as err:  # a killed writer, or one whose last write failed (disk full)
             if "already open for write" not in str(err) and "truncated file" not in str(err):
                 raise unreadable(path, err) from err
-            w = _writer_record(path)
-            if w.get("host") != socket.gethostname() and not force:
+            w = _writer_record(path)  # {}: no writer recorded, none can be alive
+            if w and w.get("host") != socket.gethostname() and not force:
                 raise StoreBusy(
                     f"{path} is open for writing on host {w.get('host')!r}; "
                     "pass force=True if that writer is dead"
@@ -239,12 +239,17 @@ class HDF5Store(Store):
         except OSError as err:
             raise unreadable(path, err) from err
         try:
-            return cls(f, path, writable=False)
+            store = cls(f, path, writable=False)
         except BaseException as err:
             f.close()
             if isinstance(err, KeyError | OSError | RuntimeError | ValueError):
                 raise unreadable(path, err) from err
             raise
+        eof = hdf5_end_of_file(path)  # format 1 has no digest: a cut file is refused here
+        if store.meta.get("format_version") == 1 and eof is not None and os.path.getsize(path) < eof:
+            store.close()
+            raise store._damaged("a run of format 1 (no checksums) cut short")
+        return store
 
     def close(self) -> None:
         """Close the file (unflushed rows are discarded with a warning)."""
@@ -300,22 +305,41 @@ class HDF5Store(Store):
             raise StoreDamaged(f"{self.path} is damaged: a commit record of {len(rec)} entries")
         return rec
 
+    def _get(self, name: str, sel) -> np.ndarray:
+        """``dataset[sel]``; an error names the dataset and says what HDF5 found."""
+        try:
+            return self._ds(name)[sel]
+        except Exception as err:
+            first = str(err).splitlines()[0] if str(err) else type(err).__name__
+            if "filter returned failure" in first:
+                first = "a block fails its fletcher32 checksum"
+            raise OSError(f"{name}: {first}") from err
+
     def _read_rows(self, stop: int) -> tuple[np.ndarray, ...]:
-        return tuple(self._ds(name)[:stop] for name in _ROWS)
+        return tuple(self._get(name, slice(None, stop)) for name in _ROWS)
 
     def _read_state(self, slot: int) -> RunState:
         g = "state/"
-        d = _loads(bytes(self._ds(f"{g}json{slot}")[...]))
-        flat = self._ds(f"{g}arrays{slot}")[...]
+        raw = bytes(self._get(f"{g}json{slot}", ...))
+        try:
+            d = _loads(raw)
+        except ValueError as err:  # UnicodeDecodeError, JSONDecodeError
+            raise ValueError(f"{g}json{slot}: not the JSON written ({err})") from err
+        flat = self._get(f"{g}arrays{slot}", ...)
         arrays = {k: flat[o : o + int(np.prod(s))].reshape(s) for k, (o, s) in d["index"].items()}
         return RunState(
-            self._ds(g + "position")[slot],
-            self._ds(g + "log_prob")[slot],
-            self._ds(g + "blobs")[slot],
+            self._get(g + "position", slot),
+            self._get(g + "log_prob", slot),
+            self._get(g + "blobs", slot),
             d["rng_state"],
             d["extra"],
             arrays,
         )
+
+    def _damaged(self, what: str) -> StoreDamaged:
+        eof, size = hdf5_end_of_file(self.path), os.path.getsize(self.path)
+        cut = f"it is truncated ({size} of {eof} bytes); " if eof is not None and size < eof else ""
+        return StoreDamaged(f"{self.path} is damaged: {cut}{what}; it is not read")
 
     def _write_rows(self, start, chain, log_prob, blobs, accepted) -> None:
         stop = start + len(chain)
@@ -350,38 +374,6 @@ class HDF5Store(Store):
         rec = [n_saved, slot, generation, *digest][: ds.shape[0]]  # format 1: no digest
         ds[...] = np.array(rec, dtype=np.int64)
         self._f.flush()
-
-
-def _writer_record(path: str) -> dict:
-    """The pid and host recorded by a run file's writer ({} if none or unreadable)."""
-    h5py = _h5py()
-    try:
-        with h5py.File(path, "r", swmr=True) as fr:
-            raw = bytes(fr["writer"][...]).rstrip(b"\0")
-        return json.loads(raw) if raw else {}
-    except (KeyError, OSError, RuntimeError, ValueError) as err:
-        raise unreadable(path, err) from err
-
-
-def _pid_alive(pid: int) -> bool:
-    """Whether process ``pid`` still runs. A zombie does not: it has exited and holds no file,
-    but ``kill(pid, 0)`` still finds it until its parent reaps it (a killed batch's Dask worker,
-    orphaned, stays a zombie for about a second here before init reaps it; a batch run again
-    at once found its store "being written" by it, tests/test_batch.py)."""
-    if pid <= 0:
-        return False
-    try:
-        os.kill(pid, 0)
-    except ProcessLookupError:
-        return False
-    except PermissionError:
-        pass
-    try:  # Linux: the state letter after the command name in /proc/<pid>/stat
-        with open(f"/proc/{pid}/stat", encoding="ascii", errors="replace") as fh:
-            state = fh.read().rsplit(")", 1)[1].split()[0]
-    except (OSError, IndexError):
-        return True
-    return state not in ("Z", "X")
 
 
 def read_run(path: str | os.PathLike) -> RunData:
