@@ -217,17 +217,21 @@ class Store(ABC):
         return RunData(*rows, self.param_names, self.blob_names, dict(self.meta), state)
 
     def _consistent_read(self, with_rows: bool) -> tuple[tuple, RunState | None]:
+        failures = 0
         for _ in range(200):
             n_saved, slot, gen, *digest = self._read_commit()
             try:
                 rows = self._read_rows(n_saved) if with_rows else ()
                 state = None if slot < 0 else self._read_state(slot)
             except Exception as err:
-                # A writer two commits ahead may be rewriting our slot: retry; otherwise the
-                # store is really broken.
-                if self._read_commit()[2] == gen:
+                # A writer two commits ahead may be rewriting our slot, or the chunk holding
+                # the last committed rows and its next ones (a checksum read mid-write): retry;
+                # failing again and again at one commit, the store is really broken.
+                failures = failures + 1 if self._read_commit()[2] == gen else 0
+                if failures >= 3 or (failures and self.writable):
                     raise self._damaged(f"its {n_saved} committed steps cannot be read "
                                         f"({err})") from err
+                time.sleep(0.01)
                 continue
             # The writer only rewrites a slot after a newer commit: unchanged generation => the
             # state we read is whole. Rows below n_saved are never rewritten.

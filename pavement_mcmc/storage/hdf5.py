@@ -21,6 +21,7 @@ from __future__ import annotations
 import json
 import os
 import socket
+import time
 
 import numpy as np
 
@@ -297,10 +298,14 @@ class HDF5Store(Store):
         return ds
 
     def _read_commit(self) -> tuple[int, ...]:
-        try:
-            rec = tuple(int(v) for v in self._ds("commit")[...])
-        except (KeyError, OSError, RuntimeError, ValueError) as err:
-            raise unreadable(self.path, err, "its commit record cannot be read") from err
+        for attempt in range(3):  # a reader may meet the record while the writer rewrites it
+            try:
+                rec = tuple(int(v) for v in self._ds("commit")[...])
+                break
+            except (KeyError, OSError, RuntimeError, ValueError) as err:
+                if attempt == 2 or self.writable:
+                    raise unreadable(self.path, err, "its commit record cannot be read") from err
+                time.sleep(0.01)
         if len(rec) not in (3, 3 + N_DIGEST):
             raise StoreDamaged(f"{self.path} is damaged: a commit record of {len(rec)} entries")
         return rec
