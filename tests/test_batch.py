@@ -193,3 +193,24 @@ def test_a_units_peak_memory_is_its_own_not_the_processs_lifetime_peak():
     del small
     assert peak < lifetime - 300, (peak, lifetime)
     assert peak >= 50
+
+
+def _hog(x):
+    big = np.ones(800 * 2**20 // 8)  # 800 MB: over the worker's limit
+    time.sleep(10)
+    return float(big.sum())
+
+
+def test_a_worker_out_of_memory_is_reported_for_its_unit_and_the_others_run():
+    """issue 24: a worker killed for its memory (the nanny's limit here; the kernel's OOM
+    killer alike) fails its own unit with a reason that says so, not the batch."""
+    import dask
+    from distributed import Client, LocalCluster
+
+    with dask.config.set({"distributed.scheduler.allowed-failures": 0}), \
+            LocalCluster(n_workers=1, threads_per_worker=1, memory_limit="400MB",
+                         dashboard_address=None, silence_logs=50) as cluster, Client(cluster) as c:
+        out = map_units(_hog, [1], client=c, retries=0)
+        ok = map_units(_square, [3], client=c, retries=0)
+    assert isinstance(out[0], Failure) and "KilledWorker" in out[0].reason, out
+    assert "out of memory?" in out[0].reason and ok == [9]
