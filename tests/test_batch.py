@@ -201,6 +201,7 @@ def _hog(x):
     return float(big.sum())
 
 
+@pytest.mark.slow  # about 40 s: a worker started, killed and started again
 def test_a_worker_out_of_memory_is_reported_for_its_unit_and_the_others_run():
     """issue 24: a worker killed for its memory (the nanny's limit here; the kernel's OOM
     killer alike) fails its own unit with a reason that says so, not the batch."""

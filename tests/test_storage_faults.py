@@ -88,7 +88,7 @@ def toy(tmp_path_factory) -> Path:
     return tmp / "straight.h5"
 
 
-@pytest.mark.parametrize("limit", [500_000, 900_000])
+@pytest.mark.parametrize("limit", [500_000, pytest.param(900_000, marks=pytest.mark.slow)])
 def test_a_write_past_the_file_size_limit_stops_cleanly_and_resumes_bit_for_bit(toy, tmp_path, limit):
     straight = read_run(toy)
     (tmp_path / "writer.py").write_text(WRITER)
