@@ -18,6 +18,7 @@ import functools
 import logging
 import os
 from collections.abc import Callable, Iterable, Iterator
+from concurrent.futures import CancelledError
 from contextlib import contextmanager
 from dataclasses import dataclass
 
@@ -108,30 +109,41 @@ def map_units(fn: Callable, units: Iterable, *, key: Callable = str, client=None
                for u, k in zip(units, keys)]
     index = {f.key: i for i, f in enumerate(futures)}
     out: list = [None] * len(units)
-    lost = []
-    for fut in as_completed(futures):
-        i = index[fut.key]
-        if fut.status == "finished":
-            out[i] = fut.result()
-        elif fut.status == "error":
-            err = fut.exception()
-            why = (" (the worker running it died each time: out of memory?)"
-                   if type(err).__name__ == "KilledWorker" else "")
-            out[i] = Failure(keys[i], f"{type(err).__name__}: {err}{why}")
-        else:  # cancelled: the scheduler that held it went away
-            lost.append(keys[i])
-            continue
-        fut.release()
-        if on_done is not None:
-            on_done(i, out[i])
-    if lost:
+    pending = set(range(len(units)))
+    try:
+        for fut in as_completed(futures):
+            i = index[fut.key]
+            try:
+                out[i] = _outcome(fut, keys[i])
+            except (OSError, CancelledError):  # the connection closed, the task cancelled
+                continue
+            pending.discard(i)
+            fut.release()
+            if on_done is not None:
+                on_done(i, out[i])
+    except (OSError, CancelledError):
+        pass
+    if pending:  # the scheduler that held them went away
+        lost = [keys[i] for i in sorted(pending)]
         raise SchedulerLost(
-            f"the Dask scheduler {client.scheduler.address if client.scheduler else ''} went "
-            f"away during the batch: {len(units) - len(lost)} of {len(units)} units ended, "
-            f"{len(lost)} did not ({', '.join(lost[:3])}{', ...' if len(lost) > 3 else ''}); "
-            "run the batch again when a scheduler is up: ended units are read back, "
-            "interrupted ones resumed")
+            f"the Dask scheduler {getattr(client.scheduler, 'address', '')} went away during "
+            f"the batch: {len(units) - len(lost)} of {len(units)} units ended, {len(lost)} did "
+            f"not ({', '.join(lost[:3])}{', ...' if len(lost) > 3 else ''}); run the batch "
+            "again when a scheduler is up: ended units are read back, interrupted ones resumed")
     return out
+
+
+def _outcome(fut, key: str):
+    """A finished future's result, or the :class:`Failure` of one that raised; a cancelled one
+    (its scheduler lost) raises ``CancelledError``."""
+    if fut.status == "finished":
+        return fut.result()
+    if fut.status == "error":
+        err = fut.exception()
+        why = (" (the worker running it died each time: out of memory?)"
+               if type(err).__name__ == "KilledWorker" else "")
+        return Failure(key, f"{type(err).__name__}: {err}{why}")
+    raise CancelledError(key)
 
 
 @contextmanager
