@@ -146,7 +146,9 @@ def close_after_failure(f) -> None:
 
 
 def creation_failed(path: str, err: BaseException) -> BaseException:
-    if isinstance(err, Exception) and not isinstance(err, StoreWriteFailed | KeyError | TypeError):
+    """A write error of HDF5 (OSError, RuntimeError) while a run file was created, as a
+    :class:`StoreWriteFailed`; any other error as it is."""
+    if isinstance(err, OSError | RuntimeError) and not isinstance(err, StoreWriteFailed):
         reason = system_reason(err)
         return StoreWriteFailed(f"creating {path} failed: {reason}; nothing was stored",
                                 path=path, reason=reason)
