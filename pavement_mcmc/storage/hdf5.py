@@ -109,7 +109,10 @@ class HDF5Store(Store):
         meta = cls._make_meta(param_names, blob_names, n_chains, meta)
         m, p, b = int(n_chains), len(param_names), len(blob_names)
         rows = max(1, min(1024, 2**18 // (8 * m * max(p, b, 1))))
-        f = h5py.File(path, "w", libver="latest")
+        try:
+            f = h5py.File(path, "w", libver="latest")
+        except OSError as err:  # no room for even the file's header
+            raise creation_failed(path, err) from err
         try:
             f.attrs.update(
                 {
