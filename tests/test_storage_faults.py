@@ -206,3 +206,16 @@ def test_every_reader_refuses_a_damaged_run_in_one_line(case_a, tmp_path, comman
     err = capsys.readouterr().err
     assert code == 2 and f"{bad / 'chain.h5'} is damaged: it is truncated" in err, err
     assert "Traceback" not in err and not (tmp_path / "x.csv").exists()
+
+
+def test_the_reason_of_a_failed_write_is_one_line_in_the_systems_words():
+    """HDF5's messages run over several lines and vary (a Case C fit over the limit said
+    'Unable to extend file properly, ...' across two lines): the reason is the errno's text."""
+    from pavement_mcmc.storage.integrity import system_reason
+
+    err = RuntimeError("Unable to synchronously flush file (Unable to extend file properly, "
+                       "errno = 27, error message = 'file too large' (file write failed: time = "
+                       "Fri Nov 27 11:23:56 2026\n, filename = 'chain.h5', file descriptor = 3))")
+    assert system_reason(err) == "File too large (errno 27)"
+    assert system_reason(OSError(28, "x")) == "No space left on device (errno 28)"
+    assert system_reason(RuntimeError("first\nsecond")) == "first"

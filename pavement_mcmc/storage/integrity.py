@@ -82,16 +82,16 @@ def what_differs(stored: tuple[int, ...], found: tuple[int, ...], with_rows: boo
 
 
 def system_reason(err: BaseException) -> str:
-    """The operating system's words in an HDF5 error ('No space left on device', errno 28),
-    else the error's first line."""
+    """The operating system's words for an HDF5 write error ('No space left on device (errno
+    28)'), read off the errno HDF5 quotes; else the error's first line. Always one line."""
     for e in (err, err.__cause__, err.__context__):
         if e is None:
             continue
         if isinstance(e, OSError) and e.errno:
-            return f"{e.strerror or os.strerror(e.errno)} (errno {e.errno})"
-        m = re.search(r"errno = (\d+), error message = '([^']*)'", str(e))
-        if m:
-            return f"{m.group(2)} (errno {m.group(1)})"
+            return f"{os.strerror(e.errno)} (errno {e.errno})"
+        m = re.search(r"errno\s*=\s*(\d+)", str(e))
+        if m and int(m.group(1)):
+            return f"{os.strerror(int(m.group(1)))} (errno {m.group(1)})"
     return str(err).splitlines()[0] if str(err) else type(err).__name__
 
 
