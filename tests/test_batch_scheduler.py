@@ -119,7 +119,8 @@ def test_a_batch_on_a_cluster_started_by_hand_matches_the_embedded_one(cluster, 
     assert "peak memory" in p.stdout
 
 
-def _kill_scheduler_mid_batch(cluster: Cluster, out: Path, counter: Path, after: str) -> str:
+def _kill_scheduler_mid_batch(cluster: Cluster, out: Path, counter: Path, after: str,
+                              six: bool = False) -> str:
     """Run the batch; kill the scheduler once one more unit has ended (``after="end"``) or has
     started sampling (``"start"``: mid-unit); restart the scheduler at the same address."""
     def progress() -> int:
@@ -130,6 +131,9 @@ def _kill_scheduler_mid_batch(cluster: Cluster, out: Path, counter: Path, after:
     before = progress()
     code = BATCH.format(tests=str(Path(__file__).parent), out=str(out), address=cluster.address,
                         counter=str(counter))
+    if six:
+        code = code.replace("from test_batch import _units", "from test_batch_scheduler import "
+                            "_six_units as _units")
     proc = subprocess.Popen([sys.executable, "-c", code], env=ENV, stdout=subprocess.PIPE,
                             stderr=subprocess.PIPE, text=True)
     t0 = time.time()
@@ -144,16 +148,29 @@ def _kill_scheduler_mid_batch(cluster: Cluster, out: Path, counter: Path, after:
     return err
 
 
+def _six_units():
+    from test_batch import SMALL
+
+    from pavement_mcmc.batch import window_units
+
+    wins = [(0, 6), (6, 12), (12, 18), (18, 24), (3, 9), (15, 21)]
+    return window_units(REPO / "runs" / "caseA.toml", windows=wins, overrides=SMALL)
+
+
 @pytest.mark.parametrize("kills", [1, pytest.param(3, marks=pytest.mark.slow)])
 def test_a_scheduler_killed_mid_batch_then_the_batch_run_again(cluster, reference, tmp_path, kills):
     out, counter = tmp_path / "b", tmp_path / "starts.txt"
+    units, ref = __import__("test_batch")._units(), reference
+    if kills > 1:  # six units, so that three kills each find work in flight
+        units, ref = _six_units(), tmp_path / "ref6"
+        run_batch(units, ref, seed=5, n_workers=2)
     for _ in range(kills):
-        err = _kill_scheduler_mid_batch(cluster, out, counter, "end" if kills == 1 else "start")
+        err = _kill_scheduler_mid_batch(cluster, out, counter, "end" if kills == 1 else "start",
+                                        six=kills > 1)
         assert "SchedulerLost: the Dask scheduler" in err and "went away" in err, err[-3000:]
     finished = {p.parent.name: p.stat().st_mtime_ns for p in out.glob("*/unit.json")}
-    run_batch(__import__("test_batch")._units(), out, seed=5, scheduler=cluster.address,
-              counter=counter)
-    assert (out / TABLE).read_bytes() == (reference / TABLE).read_bytes()
+    run_batch(units, out, seed=5, scheduler=cluster.address, counter=counter)
+    assert (out / TABLE).read_bytes() == (ref / TABLE).read_bytes()
     for key, mtime in finished.items():  # finished units are read back, not redone
         assert (out / key / "unit.json").stat().st_mtime_ns == mtime
     assert all(n <= kills + 1 for n in _unit_starts(counter).values())

@@ -8,6 +8,8 @@
   (unless ``result.json`` is newer: the run was continued with ``resume``; the row is re-read);
 * ``chain.h5`` with a saved block but no ``unit.json``: the unit was killed; it is continued
   with :func:`~pavement_mcmc.runs.resume`, bit for bit;
+* a ``chain.h5`` that is damaged (:class:`~pavement_mcmc.storage.StoreDamaged`) is not read:
+  the unit is fitted again (same seed, same chain);
 * otherwise it is fitted from scratch with the seed :func:`~.units.unit_seed` gives its key.
 
 The row is always computed from the stored chain, so a unit that was interrupted and resumed
@@ -119,9 +121,10 @@ def _folder(key: str) -> str:
 
 
 def _sample(unit: Unit, run_dir: Path, batch_seed: int, max_seconds) -> None:
-    if stored_result(run_dir) is not None:
+    whole = _resumable(run_dir)  # False for a chain file that is missing or damaged
+    if whole and stored_result(run_dir) is not None:
         return  # sampled, killed while writing unit.json: the chain is complete
-    if _resumable(run_dir):
+    if whole:
         try:
             resume(run_dir, max_seconds=max_seconds)
             return
