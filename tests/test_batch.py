@@ -174,3 +174,44 @@ def test_drift_measures_trend_and_scatter_in_units_of_the_intervals():
     d = drift(rows, "x")
     assert d.n == 5 and d.slope == pytest.approx(0.1) and d.half_width == pytest.approx(0.1)
     assert d.chi2_dof == pytest.approx(np.sum(((np.arange(5) - 2) * 0.1 / (0.2 / 3.92)) ** 2) / 4)
+
+
+@pytest.mark.skipif(not os.access("/proc/self/clear_refs", os.W_OK), reason="needs Linux >= 4.0")
+def test_a_units_peak_memory_is_its_own_not_the_processs_lifetime_peak():
+    """issue 25: the worker's peak since the unit started (VmHWM reset at its start); the old
+    ru_maxrss counted every earlier unit and the process the worker was forked from."""
+    import resource
+
+    from pavement_mcmc.batch.unit import _peak_rss_mb, _reset_peak_rss
+
+    big = np.ones(400 * 2**20 // 8)  # 400 MB, written, then freed: an earlier unit's peak
+    del big
+    lifetime = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
+    _reset_peak_rss()
+    small = np.ones(50 * 2**20 // 8)  # this unit: 50 MB on top of what the process holds
+    peak = _peak_rss_mb()
+    del small
+    assert peak < lifetime - 300, (peak, lifetime)
+    assert peak >= 50
+
+
+def _hog(x):
+    big = np.ones(800 * 2**20 // 8)  # 800 MB: over the worker's limit
+    time.sleep(10)
+    return float(big.sum())
+
+
+@pytest.mark.slow  # about 40 s: a worker started, killed and started again
+def test_a_worker_out_of_memory_is_reported_for_its_unit_and_the_others_run():
+    """issue 24: a worker killed for its memory (the nanny's limit here; the kernel's OOM
+    killer alike) fails its own unit with a reason that says so, not the batch."""
+    import dask
+    from distributed import Client, LocalCluster
+
+    with dask.config.set({"distributed.scheduler.allowed-failures": 0}), \
+            LocalCluster(n_workers=1, threads_per_worker=1, memory_limit="400MB",
+                         dashboard_address=None, silence_logs=50) as cluster, Client(cluster) as c:
+        out = map_units(_hog, [1], client=c, retries=0)
+        ok = map_units(_square, [3], client=c, retries=0)
+    assert isinstance(out[0], Failure) and "KilledWorker" in out[0].reason, out
+    assert "out of memory?" in out[0].reason and ok == [9]

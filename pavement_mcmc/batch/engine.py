@@ -7,16 +7,22 @@ existing cluster by address (``scheduler=`` or the standard ``DASK_SCHEDULER_ADD
 variable). A worker process that dies mid-unit is noticed by the Dask scheduler, which runs
 the unit again elsewhere (up to ``distributed.scheduler.allowed-failures`` times); a unit that
 raises is retried ``retries`` times (``Client.submit(retries=...)``). A unit that still fails
-is returned as a :class:`Failure` with its reason; it never stops the others.
+is returned as a :class:`Failure` with its reason; it never stops the others. A scheduler that
+goes away mid-batch (killed, its machine lost) stops the batch with :class:`SchedulerLost`: the
+units still out are not failures of their own, and running the batch again finishes them.
 """
 
 from __future__ import annotations
 
 import functools
+import logging
 import os
 from collections.abc import Callable, Iterable, Iterator
+from concurrent.futures import CancelledError
 from contextlib import contextmanager
 from dataclasses import dataclass
+
+from ..data.errors import UserError
 
 #: the standard Dask environment variable naming an existing scheduler
 SCHEDULER_ENV = "DASK_SCHEDULER_ADDRESS"
@@ -33,6 +39,10 @@ class Failure:
 
     key: str
     reason: str
+
+
+class SchedulerLost(UserError, RuntimeError):
+    """The Dask scheduler went away during a batch; the units it still held did not run."""
 
 
 def default_workers() -> int:
@@ -53,8 +63,8 @@ def connect(scheduler: str | None = None, n_workers: int | None = None) -> Itera
 
     address = scheduler or os.environ.get(SCHEDULER_ENV)
     if address:
-        with Client(address) as client:
-            yield client
+        with _quiet("distributed.client"), Client(address) as client:
+            yield client  # a lost scheduler is told by map_units, not by Dask's log
         return
     n = int(n_workers or default_workers())
     with LocalCluster(n_workers=n, threads_per_worker=1, processes=True, dashboard_address=None,
@@ -99,14 +109,50 @@ def map_units(fn: Callable, units: Iterable, *, key: Callable = str, client=None
                for u, k in zip(units, keys)]
     index = {f.key: i for i, f in enumerate(futures)}
     out: list = [None] * len(units)
-    for fut in as_completed(futures):
-        i = index[fut.key]
-        if fut.status == "finished":
-            out[i] = fut.result()
-        else:
-            err = fut.exception()
-            out[i] = Failure(keys[i], f"{type(err).__name__}: {err}")
-        fut.release()
-        if on_done is not None:
-            on_done(i, out[i])
+    pending = set(range(len(units)))
+    try:
+        for fut in as_completed(futures):
+            i = index[fut.key]
+            try:
+                out[i] = _outcome(fut, keys[i])
+            except (OSError, CancelledError):  # the connection closed, the task cancelled
+                continue
+            pending.discard(i)
+            fut.release()
+            if on_done is not None:
+                on_done(i, out[i])
+    except (OSError, CancelledError):
+        pass
+    if pending:  # the scheduler that held them went away
+        lost = [keys[i] for i in sorted(pending)]
+        raise SchedulerLost(
+            f"the Dask scheduler {getattr(client.scheduler, 'address', '')} went away during "
+            f"the batch: {len(units) - len(lost)} of {len(units)} units ended, {len(lost)} did "
+            f"not ({', '.join(lost[:3])}{', ...' if len(lost) > 3 else ''}); run the batch "
+            "again when a scheduler is up: ended units are read back, interrupted ones resumed")
     return out
+
+
+def _outcome(fut, key: str):
+    """A finished future's result, or the :class:`Failure` of one that raised; a cancelled one
+    (its scheduler lost) raises ``CancelledError``."""
+    if fut.status == "finished":
+        return fut.result()
+    if fut.status == "error":
+        err = fut.exception()
+        why = (" (the worker running it died each time: out of memory?)"
+               if type(err).__name__ == "KilledWorker" else "")
+        return Failure(key, f"{type(err).__name__}: {err}{why}")
+    raise CancelledError(key)
+
+
+@contextmanager
+def _quiet(name: str) -> Iterator[None]:
+    """Silence one logger for the duration (Dask logs each reconnection attempt as an error)."""
+    log = logging.getLogger(name)
+    level = log.level
+    log.setLevel(logging.CRITICAL + 1)
+    try:
+        yield
+    finally:
+        log.setLevel(level)

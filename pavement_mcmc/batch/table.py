@@ -11,8 +11,11 @@ from .engine import Failure, map_units
 from .unit import COLUMNS, run_unit
 from .units import Unit, check_unique
 
-#: the batch table in the output folder
+#: the batch table in the output folder (reproducible: the same bytes for the same batch)
 TABLE = "batch.csv"
+#: what each unit cost (wall time s, the worker's peak resident memory MB while it ran)
+COSTS = "batch_costs.csv"
+COST_COLUMNS = ("key", "elapsed_s", "peak_rss_mb")
 
 
 def run_batch(units: list[Unit], out: str | Path, *, seed: int = 0, scheduler: str | None = None,
@@ -28,6 +31,7 @@ def run_batch(units: list[Unit], out: str | Path, *, seed: int = 0, scheduler: s
     units = check_unique(list(units))
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
+    (out / TABLE).unlink(missing_ok=True)  # a table is there only when its batch ended
     results = map_units(run_unit, units, key=lambda u: u.key, client=client, scheduler=scheduler,
                         n_workers=n_workers, retries=retries, on_done=on_done, out=str(out),
                         batch_seed=int(seed), max_seconds=max_seconds,
@@ -35,7 +39,19 @@ def run_batch(units: list[Unit], out: str | Path, *, seed: int = 0, scheduler: s
     rows = [_failed_row(u, r) if isinstance(r, Failure) else {c: r[c] for c in COLUMNS}
             for u, r in zip(units, results)]
     write_table(rows, out / TABLE)
+    _write_costs(units, results, out / COSTS)
     return rows
+
+
+def _write_costs(units: list[Unit], results: list, path: Path) -> None:
+    """What each unit cost where it ran: wall time and the worker's peak memory (measured,
+    so it differs from run to run: kept out of the reproducible ``batch.csv``)."""
+    with open(path, "w", newline="", encoding="utf-8") as fh:
+        w = csv.writer(fh)
+        w.writerow(COST_COLUMNS)
+        for u, r in zip(units, results):
+            rec = {} if isinstance(r, Failure) else r
+            w.writerow([u.key, *(_cell(rec.get(c, float("nan"))) for c in COST_COLUMNS[1:])])
 
 
 def _failed_row(unit: Unit, f: Failure) -> dict:

@@ -8,10 +8,16 @@
   (unless ``result.json`` is newer: the run was continued with ``resume``; the row is re-read);
 * ``chain.h5`` with a saved block but no ``unit.json``: the unit was killed; it is continued
   with :func:`~pavement_mcmc.runs.resume`, bit for bit;
+* a ``chain.h5`` that is damaged (:class:`~pavement_mcmc.storage.StoreDamaged`) is not read:
+  the unit is fitted again (same seed, same chain);
 * otherwise it is fitted from scratch with the seed :func:`~.units.unit_seed` gives its key.
 
 The row is always computed from the stored chain, so a unit that was interrupted and resumed
-gives the same row, bit for bit, as one that ran straight through. Errors a user can fix
+gives the same row, bit for bit, as one that ran straight through. A unit whose chain another
+live process is still writing (a worker orphaned by a lost scheduler finishing it) is waited
+for, not written twice. ``unit.json`` also records the unit's wall time and the worker's own
+peak resident memory while it ran (``peak_rss_mb``: the high-water mark reset at the unit's
+start, so neither an earlier unit nor the process the worker was forked from counts). Errors a user can fix
 (bad window, bad config, missing data) come back as a row with ``status = "failed"`` and the
 reason; anything else propagates to Dask, which retries it.
 """
@@ -27,8 +33,9 @@ import numpy as np
 
 from ..data import ConfigError, DataError
 from ..runs import RunFolder, fit, load_kept, resume
+from ..runs.resume import stored_result
 from ..runs.tables import plausibility, statistics_table
-from ..storage import StoreMismatch
+from ..storage import StoreBusy, StoreMismatch
 from .units import Unit, unit_seed
 
 #: the columns of the batch table, in order (units: kappa W m-1 K-1, C J m-3 K-1, kappa/C m2 s-1,
@@ -43,6 +50,8 @@ UNIT_ERRORS = (ConfigError, DataError, StoreMismatch, FileNotFoundError, ValueEr
 NO_BUDGET = 1e9
 #: draws used for the derived quantities (kappa/C, mean h): evenly spaced over the kept chain
 N_DERIVED = 400
+#: how long a unit waits for another live process that is still writing its chain, s
+BUSY_WAIT = 3600.0
 
 
 def run_unit(unit: Unit, out: str | Path, batch_seed: int = 0, *, max_seconds: float | None = None,
@@ -54,8 +63,8 @@ def run_unit(unit: Unit, out: str | Path, batch_seed: int = 0, *, max_seconds: f
     appended whenever this function starts sampling (tests count recomputations with it).
     """
     folder = RunFolder(Path(out) / _folder(unit.key))
-    run_dir, done, result = folder.path, folder.unit, folder.result
-    if done.exists() and not (result.exists() and result.stat().st_mtime > done.stat().st_mtime):
+    run_dir, done = folder.path, folder.unit
+    if _finished(run_dir):
         return json.loads(done.read_text())
     # else: not finished, or continued since with `pavement-mcmc resume` (the row is re-read)
     row = {"key": unit.key, "site": unit.site, "start_time": unit.start_time,
@@ -63,18 +72,20 @@ def run_unit(unit: Unit, out: str | Path, batch_seed: int = 0, *, max_seconds: f
            "end_h": unit.window_hours[1] if unit.window_hours else float("nan"),
            "run_dir": run_dir.name}  # relative to the batch folder: tables compare across folders
     t0 = time.perf_counter()
+    _reset_peak_rss()
     try:
         if counter is not None:
             with open(counter, "a") as fh:
                 fh.write(f"{unit.key} {os.getpid()}\n")
-        _sample(unit, run_dir, batch_seed, max_seconds)
+        if not _sample_when_free(unit, run_dir, batch_seed, max_seconds):
+            return json.loads(done.read_text())  # the other writer finished the unit
         row.update(unit_row(run_dir))
     except UNIT_ERRORS as err:
         row.update(status="failed", reason=f"{type(err).__name__}: {err}")
     row = {c: row.get(c, _EMPTY.get(c, float("nan"))) for c in COLUMNS}
     run_dir.mkdir(parents=True, exist_ok=True)
     record = {**row, "elapsed_s": time.perf_counter() - t0, "peak_rss_mb": _peak_rss_mb()}
-    tmp = done.with_name(done.name + ".tmp")
+    tmp = done.with_name(f"{done.name}.{os.getpid()}.tmp")
     tmp.write_text(json.dumps(record, indent=1))
     os.replace(tmp, done)  # atomic: a unit is finished exactly when unit.json exists
     return record
@@ -83,14 +94,38 @@ def run_unit(unit: Unit, out: str | Path, batch_seed: int = 0, *, max_seconds: f
 _EMPTY = {"status": "failed", "verdict": "", "reason": "", "converged": False, "start_time": ""}
 
 
+def _finished(run_dir: Path) -> bool:
+    """``unit.json`` is there and no resume has grown the run since it was written."""
+    folder = RunFolder(run_dir)
+    done, result = folder.unit, folder.result
+    return done.exists() and not (result.exists() and result.stat().st_mtime > done.stat().st_mtime)
+
+
+def _sample_when_free(unit: Unit, run_dir: Path, batch_seed: int, max_seconds) -> bool:
+    """:func:`_sample`, waiting while another live process writes this unit's chain; False if
+    that process finished the unit meanwhile."""
+    t0 = time.monotonic()
+    while True:
+        try:
+            _sample(unit, run_dir, batch_seed, max_seconds)
+            return True
+        except StoreBusy:
+            if time.monotonic() - t0 > BUSY_WAIT:
+                raise
+            time.sleep(0.5)
+            if _finished(run_dir):
+                return False
+
+
 def _folder(key: str) -> str:
     return "".join(c if c.isalnum() or c in "-_.@" else "_" for c in key)
 
 
 def _sample(unit: Unit, run_dir: Path, batch_seed: int, max_seconds) -> None:
-    if RunFolder(run_dir).result.exists():
+    whole = _resumable(run_dir)  # False for a chain file that is missing or damaged
+    if whole and stored_result(run_dir) is not None:
         return  # sampled, killed while writing unit.json: the chain is complete
-    if _resumable(run_dir):
+    if whole:
         try:
             resume(run_dir, max_seconds=max_seconds)
             return
@@ -157,7 +192,26 @@ def _col(problem, data, flat, name):
     return None  # fixed: the draws of the derived set carry its value
 
 
+def _reset_peak_rss() -> None:
+    """Reset this process's peak resident memory to its current one (Linux >= 4.0)."""
+    try:
+        with open("/proc/self/clear_refs", "w") as fh:
+            fh.write("5")
+    except OSError:
+        pass
+
+
 def _peak_rss_mb() -> float:
+    """This process's peak resident memory since :func:`_reset_peak_rss`, MB (``VmHWM``).
+    Elsewhere ``ru_maxrss``, which counts the whole life of the process (and, on Linux, is
+    inherited from the process it was forked from: the 8 GB "per unit" of issue 25)."""
+    try:
+        with open("/proc/self/status", encoding="ascii") as fh:
+            for line in fh:
+                if line.startswith("VmHWM:"):
+                    return int(line.split()[1]) / 1024.0
+    except (OSError, ValueError, IndexError):
+        pass
     try:
         import resource
 

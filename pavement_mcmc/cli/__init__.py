@@ -4,8 +4,10 @@ and provides ``add_parser(subparsers)`` and ``run(args) -> int``. Only the CLI p
 from __future__ import annotations
 
 import argparse
+import errno
 import importlib
 import platform
+import signal
 import sys
 import traceback
 import warnings
@@ -74,9 +76,15 @@ def _show_warning(message, category, filename, lineno, file=None, line=None) -> 
 _PACKAGE_DIR = str(Path(__file__).resolve().parents[1])
 
 
+#: a full disk, a quota, a file-size limit, a failing device: one line, not a traceback
+_DISK_ERRORS = {errno.ENOSPC, errno.EDQUOT, errno.EFBIG, errno.EIO}
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
+    if hasattr(signal, "SIGXFSZ"):  # over `ulimit -f`: a write error (EFBIG), not a core dump
+        signal.signal(signal.SIGXFSZ, signal.SIG_IGN)
     from ..runs.threads import single_blas_thread
 
     try:
@@ -89,7 +97,12 @@ def main(argv: list[str] | None = None) -> int:
     except UserError as err:  # DataError, ConfigError, StoreMismatch, RunError, ...
         print(f"pavement-mcmc {args.command}: error: {err}", file=sys.stderr)
         return 2
-    except Exception:  # anything else is a bug: show it
+    except Exception as err:  # anything else is a bug (but a full disk): show it
+        if isinstance(err, OSError) and err.errno in _DISK_ERRORS:
+            print(f"pavement-mcmc {args.command}: error: writing {err.filename or 'a file'} "
+                  f"failed: {err.strerror}; free space and run the command again",
+                  file=sys.stderr)
+            return 2
         traceback.print_exc()
         print(f"\npavement-mcmc {args.command}: this is a bug in pavement_mcmc, not in your input. "
               f"Please report it with the command line above and this traceback "

@@ -99,5 +99,19 @@ def run_batch_command(args: argparse.Namespace) -> int:
     lines += [f"  not converged {r['key']}: {r['reason']} (pavement-mcmc resume {out / r['run_dir']})"
               for r in unconv]
     lines += [f"  FAILED {r['key']}: {r['reason']}" for r in failed]
+    lines += [_costs_line(out)]
     emit(args, {"table": str(out / TABLE), "rows": rows}, "\n".join(lines))
     return 1 if failed else 0
+
+
+def _costs_line(out: Path) -> str:
+    """Wall time and peak memory per unit, from OUT/batch_costs.csv."""
+    from ..batch import COSTS, read_table
+
+    rows = read_table(out / COSTS)
+    mem = [r["peak_rss_mb"] for r in rows if r["peak_rss_mb"] == r["peak_rss_mb"]]
+    secs = [r["elapsed_s"] for r in rows if r["elapsed_s"] == r["elapsed_s"]]
+    if not mem:
+        return f"costs per unit: see {out / COSTS}"
+    return (f"per unit: {sum(secs) / len(secs):.1f} s on a worker on average, peak memory "
+            f"{max(mem):.0f} MB at most ({out / COSTS})")

@@ -16,7 +16,7 @@ import numpy as np
 from ..data import ConfigError, RunExists, load_case, merge_overrides
 from ..posterior import Problem, build_problem, find_map
 from ..samplers import get_sampler
-from ..storage import HDF5Store, read_run
+from ..storage import HDF5Store, StoreWriteFailed, read_run
 from .casefile import store_meta, write_case_record
 from .folder import RunFolder, case_rule
 from .kept import keep
@@ -137,14 +137,31 @@ def fit(
             res = _run(problem, smp, store, scfg, callback, None)
         except Exception as err:  # the run says it failed (KeyboardInterrupt: resumable)
             _failed(out, err)
+            if isinstance(err, StoreWriteFailed):
+                raise resume_hint(err, out) from None
             raise
     return _finish(out, problem, res)
 
 
 def _failed(run_dir: Path, err: BaseException) -> None:
-    """Mark a run that stopped on an error: result.json says ``failed`` and why."""
+    """Mark a run that stopped on an error: result.json says ``failed`` and why (unless the
+    disk is too full for that too: the chain's last commit is what counts)."""
     rec = {"failed": True, "converged": False, "reason": f"failed: {type(err).__name__}: {err}"}
-    RunFolder(run_dir).write_result(rec)
+    folder = RunFolder(run_dir)
+    try:
+        folder.write_result(rec)
+    except OSError:
+        folder.result.unlink(missing_ok=True)
+
+
+def resume_hint(err: StoreWriteFailed, run_dir: Path) -> StoreWriteFailed:
+    """``err`` with what to do next: free space, then resume the run folder (or start it again
+    when not one block was committed)."""
+    todo = (f"free space, then 'pavement-mcmc resume {run_dir}'" if err.n_saved else
+            f"free space, then start it again ('pavement-mcmc fit ... --out {run_dir} --overwrite')")
+    return StoreWriteFailed(f"{err}; {todo}",
+                            path=err.path, reason=err.reason, n_saved=err.n_saved,
+                            n_steps=err.n_steps, bytes_per_step=err.bytes_per_step)
 
 
 def _finish(run_dir: Path, problem: Problem, res: RunResult) -> FitOutput:

@@ -11,9 +11,9 @@ import numpy as np
 
 from ..data import RunError, RunNotFound, load_case, merge_overrides
 from ..posterior import build_problem
-from ..storage import HDF5Store
+from ..storage import HDF5Store, StoreWriteFailed
 from .casefile import store_meta
-from .fit import FitOutput, _finish, _run, _sampler_for
+from .fit import FitOutput, _finish, _run, _sampler_for, resume_hint
 from .folder import RunFolder
 from .kept import keep
 from .loop import RunResult
@@ -110,7 +110,10 @@ def resume(run_dir: str | Path, *, max_seconds: float | None = None, callback=No
                            "without converging; ask for more with --more-steps N")
         smp = _sampler_for(problem, cfg)
         smp.set_state(state)
-        res = _run(problem, smp, store, scfg, callback, max_seconds, min_steps)
+        try:
+            res = _run(problem, smp, store, scfg, callback, max_seconds, min_steps)
+        except StoreWriteFailed as err:
+            raise resume_hint(err, run_dir) from None
     if ess_target is not None:  # the new target is the run's rule from now on
         rec["overrides"], rec["rule"] = overrides, res.rule.to_dict()
         folder.write_config(rec)

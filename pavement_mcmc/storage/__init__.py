@@ -9,8 +9,9 @@ named float arrays such as an adapted proposal covariance).
 
 Modules: :mod:`.records` (:class:`RunState`, :class:`RunData` and their JSON encoding),
 :mod:`.base` (the :class:`Store` interface: buffered writing, the commit record, consistent
-reading), :mod:`.memory` (:class:`MemoryStore`), :mod:`.hdf5` (:class:`HDF5Store` in SWMR mode
-and :func:`read_run`, which reads a finished or a live run).
+reading), :mod:`.integrity` (the commit's digest, :class:`StoreDamaged`,
+:class:`StoreWriteFailed`), :mod:`.memory` (:class:`MemoryStore`), :mod:`.hdf5`
+(:class:`HDF5Store` in SWMR mode and :func:`read_run`, which reads a finished or a live run).
 """
 
 from __future__ import annotations
@@ -18,6 +19,7 @@ from __future__ import annotations
 from ..samplers.state import RunState, rng_from_state
 from .base import FORMAT_VERSION, Store, StoreBusy, StoreMismatch  # noqa: F401  (FORMAT_VERSION)
 from .hdf5 import HDF5Store, read_run
+from .integrity import StoreDamaged, StoreWriteFailed
 from .memory import MemoryStore
 from .records import RunData, config_diff
 
@@ -28,7 +30,9 @@ __all__ = [
     "RunState",
     "Store",
     "StoreBusy",
+    "StoreDamaged",
     "StoreMismatch",
+    "StoreWriteFailed",
     "config_diff",
     "read_run",
     "rng_from_state",

@@ -2,9 +2,11 @@
 
 Writing is buffered: :meth:`Store.append` fills memory, :meth:`Store.flush` writes the block and
 the resume state, then commits. The commit is a single small write of ``(n_saved, slot,
-generation)``: the state is double-buffered in two slots and the new one is written to the slot
-not referenced by the last commit, so a process killed mid-flush leaves the previous block and
-its state readable. Readers use ``n_saved``, never a dataset's shape.
+generation, digest)``: the state is double-buffered in two slots and the new one is written to
+the slot not referenced by the last commit, so a process killed mid-flush leaves the previous block
+and its state readable. Readers use ``n_saved``, never a dataset's shape, and check what they read
+against the commit's digest (:mod:`.integrity`): a damaged run is refused, never misread. A write
+that fails leaves the last commit as it was and raises :class:`~.integrity.StoreWriteFailed`.
 """
 
 from __future__ import annotations
@@ -20,9 +22,18 @@ import numpy as np
 from .. import __version__
 from ..data.errors import UserError
 from ..samplers.state import RunState
+from .integrity import (
+    N_DIGEST,
+    StoreDamaged,
+    full_digest,
+    rows_digest,
+    state_digest,
+    what_differs,
+)
 from .records import RunData, _dumps, _encode, config_diff
 
-FORMAT_VERSION = 1
+#: 2: the commit record carries a digest (format 1, without it, is still read)
+FORMAT_VERSION = 2
 
 
 class StoreMismatch(UserError, ValueError):
@@ -51,6 +62,8 @@ class Store(ABC):
         self.closed = False
         self._buffer: list[tuple] = []
         self._pending_arrays: dict[str, np.ndarray] = {}
+        #: the run loop's step count in the last commit seen (None: not known here)
+        self._committed_steps: int | None = None
 
     @staticmethod
     def _make_meta(param_names, blob_names, n_chains, meta: dict) -> dict:
@@ -94,7 +107,9 @@ class Store(ABC):
     @property
     def state(self) -> RunState | None:
         """The committed resume state (None before the first flush)."""
-        return self._consistent_read(with_rows=False)[1]
+        st = self._consistent_read(with_rows=False)[1]
+        self._committed_steps = _loop_steps(st)
+        return st
 
     # --- writing --------------------------------------------------------------------------
     def _check_writable(self) -> None:
@@ -137,12 +152,13 @@ class Store(ABC):
         return {} if st is None else st.arrays
 
     def flush(self, state: RunState) -> None:
-        """Write the buffered rows and ``state`` (plus staged arrays), then commit."""
+        """Write the buffered rows and ``state`` (plus staged arrays), then commit.
+
+        A write that fails raises :class:`~.integrity.StoreWriteFailed` (the backend says what
+        failed); the buffered rows are lost, the last commit stays readable."""
         self._check_writable()
-        n_saved, slot, gen = self._read_commit()
-        if self._buffer:
-            cols = [np.stack(c) for c in zip(*self._buffer, strict=True)]
-            self._write_rows(n_saved, *cols)
+        n_saved, slot, gen, *digest = self._read_commit()
+        cols = [np.stack(c) for c in zip(*self._buffer, strict=True)] if self._buffer else []
         st = RunState(
             np.array(state.position, dtype=np.float64),
             np.array(state.log_prob, dtype=np.float64),
@@ -154,10 +170,26 @@ class Store(ABC):
         if st.position.shape != (self.n_chains, self.n_params):
             raise ValueError(f"state.position has shape {st.position.shape}")
         new_slot = 0 if slot != 0 else 1
-        self._write_state(new_slot, st)
-        self._commit(n_saved + len(self._buffer), new_slot, gen + 1)
+        if len(digest) == N_DIGEST:  # a run of format 1 has none
+            rows = rows_digest(tuple(digest[:4]), cols) if cols else tuple(digest[:4])
+            digest = [*rows, state_digest(st)]
+        try:
+            if cols:
+                self._write_rows(n_saved, *cols)
+            self._write_state(new_slot, st)
+            self._commit(n_saved + len(self._buffer), new_slot, gen + 1, tuple(digest))
+        except Exception as err:
+            self._buffer.clear()
+            self._pending_arrays.clear()
+            raise self._write_failed(err, n_saved) from err
         self._buffer.clear()
         self._pending_arrays.clear()
+        self._committed_steps = _loop_steps(st)
+
+    def _write_failed(self, err: Exception, n_saved: int) -> Exception:
+        """The error to raise when a backend write failed (the backend makes it a clear one);
+        ``n_saved``: the rows of the last commit."""
+        return err
 
     def close(self) -> None:
         """Close; unflushed rows are discarded with a warning."""
@@ -185,23 +217,41 @@ class Store(ABC):
         return RunData(*rows, self.param_names, self.blob_names, dict(self.meta), state)
 
     def _consistent_read(self, with_rows: bool) -> tuple[tuple, RunState | None]:
+        failures = 0
         for _ in range(200):
-            n_saved, slot, gen = self._read_commit()
+            n_saved, slot, gen, *digest = self._read_commit()
             try:
                 rows = self._read_rows(n_saved) if with_rows else ()
                 state = None if slot < 0 else self._read_state(slot)
-            except Exception:
-                # A writer two commits ahead may be rewriting our slot: retry; otherwise the
-                # store is really broken.
-                if self._read_commit()[2] == gen:
-                    raise
+            except Exception as err:
+                # A writer two commits ahead may be rewriting our slot, or the chunk holding
+                # the last committed rows and its next ones (a checksum read mid-write): retry;
+                # failing again and again at one commit, the store is really broken.
+                failures = failures + 1 if self._read_commit()[2] == gen else 0
+                if failures >= 3 or (failures and self.writable):
+                    raise self._damaged(f"its {n_saved} committed steps cannot be read "
+                                        f"({err})") from err
+                time.sleep(0.01)
                 continue
             # The writer only rewrites a slot after a newer commit: unchanged generation => the
             # state we read is whole. Rows below n_saved are never rewritten.
             if self._read_commit()[2] == gen:
+                if len(digest) == N_DIGEST:
+                    self._verify(tuple(digest), rows, state, n_saved)
                 return rows, state
             time.sleep(0.005)
         raise RuntimeError("could not get a consistent read while the run is being written")
+
+    def _verify(self, digest: tuple, rows: tuple, state: RunState | None, n_saved: int) -> None:
+        """Refuse what does not match the commit's digest (a cut or altered file)."""
+        found = full_digest(rows, state) if rows else (*digest[:4], state_digest(state))
+        bad = what_differs(digest, found, with_rows=bool(rows))
+        if bad:
+            raise self._damaged(f"the stored {' and '.join(bad)} of its {n_saved} committed "
+                                "steps do not match their checksum")
+
+    def _damaged(self, what: str) -> StoreDamaged:
+        return StoreDamaged(f"{self._where()} is damaged: {what}; it is not read")
 
     def check_compatible(self, meta_new: dict) -> None:
         """Raise :class:`StoreMismatch` naming what differs between the stored run and
@@ -234,8 +284,9 @@ class Store(ABC):
 
     # --- backend primitives ---------------------------------------------------------------
     @abstractmethod
-    def _read_commit(self) -> tuple[int, int, int]:
-        """(n_saved, state slot or -1, generation)."""
+    def _read_commit(self) -> tuple[int, ...]:
+        """(n_saved, state slot or -1, generation, *digest); the digest is
+        :data:`~.integrity.N_DIGEST` CRCs (empty in a run of format 1)."""
 
     @abstractmethod
     def _read_rows(self, stop: int) -> tuple[np.ndarray, ...]:
@@ -252,5 +303,11 @@ class Store(ABC):
     def _write_state(self, slot: int, state: RunState) -> None: ...
 
     @abstractmethod
-    def _commit(self, n_saved: int, slot: int, generation: int) -> None:
+    def _commit(self, n_saved: int, slot: int, generation: int, digest: tuple = ()) -> None:
         """Make the written rows and state visible (the last write of a flush)."""
+
+
+def _loop_steps(state: RunState | None) -> int | None:
+    """The run loop's step count recorded in a state (None if it records none)."""
+    n = (state.extra.get("loop") or {}).get("n_steps") if state is not None else None
+    return None if n is None else int(n)

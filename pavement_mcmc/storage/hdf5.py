@@ -4,6 +4,16 @@ The HDF5 file is written in SWMR mode (single writer, multiple readers), so :fun
 works on a file another process is writing (emcee issues 389 and 393). SWMR forbids creating
 datasets or attributes once it is on, so everything is created up front: metadata are attributes
 written at creation, variable-length state lives in resizable ``uint8`` / ``float64`` datasets.
+
+Storage faults: every chunk carries HDF5's ``fletcher32`` checksum and the commit a digest
+(:mod:`.integrity`), so a cut or altered file is refused by :func:`read_run`,
+:meth:`HDF5Store.open_readonly` and :meth:`HDF5Store.open_append` with a message naming it.
+A write that fails (disk full, ``ulimit -f``, I/O error) raises
+:class:`~.integrity.StoreWriteFailed`; the store then points HDF5's file descriptor at
+``/dev/null`` before closing. Why: HDF5 closes a dataset by writing its cached chunks; when that
+write fails, the dataset is left half-closed and HDF5's exit handler crashes on it (a
+segmentation fault, ``H5D_close`` from ``H5_term_library``). Nothing written after the failure
+may reach the file anyway: the last commit is what a resume continues from.
 """
 
 from __future__ import annotations
@@ -11,11 +21,26 @@ from __future__ import annotations
 import json
 import os
 import socket
+import time
 
 import numpy as np
 
 from .base import FORMAT_VERSION, Store, StoreBusy
+from .integrity import (
+    N_DIGEST,
+    StoreDamaged,
+    StoreWriteFailed,
+    close_after_failure,
+    creation_failed,
+    full_digest,
+    hdf5_end_of_file,
+    human_bytes,
+    neutralise,
+    system_reason,
+    unreadable,
+)
 from .records import RunData, RunState, _dumps, _loads
+from .writer import _ABANDONED, _pid_alive, _writer_record
 
 
 def _h5py():
@@ -33,15 +58,15 @@ class HDF5Store(Store):
     Layout: datasets ``chain``, ``log_prob``, ``blobs``, ``accepted`` (chunked, unlimited along
     steps); ``state/position`` (2, n_chains, n_params), ``state/log_prob``, ``state/blobs`` (two
     slots), ``state/json0|1`` (uint8 JSON: rng state, extra, array index), ``state/arrays0|1``
-    (float64, concatenated named arrays); ``commit`` int64 (n_saved, slot, generation);
-    ``writer`` uint8 (JSON pid and host of the live writer). Metadata are root attributes
+    (float64, concatenated named arrays); ``commit`` int64 (n_saved, slot, generation and the
+    digest); ``writer`` uint8 (JSON pid and host of the live writer). Metadata are root attributes
     (``meta_json`` holds them all). ``flush`` calls ``H5Fflush`` but not ``fsync``: a killed
     process leaves a readable file, a power cut may not.
     """
 
     def __init__(self, f, path: str, writable: bool) -> None:
         meta = _loads(f.attrs["meta_json"])
-        if meta.get("format_version") != FORMAT_VERSION:
+        if meta.get("format_version") not in (1, FORMAT_VERSION):
             raise ValueError(f"{path}: unsupported run format {meta.get('format_version')!r}")
         super().__init__(
             json.loads(f.attrs["param_names"]),
@@ -52,6 +77,10 @@ class HDF5Store(Store):
         )
         self._f = f
         self.path = path
+        #: datasets stay open while the file is: a dataset closed mid-run flushes its chunk
+        #: cache, and a failed flush there is ignored by h5py and crashes HDF5 at exit
+        self._dsets: dict = {}
+        self._failed = False
 
     def _where(self) -> str:
         return self.path
@@ -80,7 +109,10 @@ class HDF5Store(Store):
         meta = cls._make_meta(param_names, blob_names, n_chains, meta)
         m, p, b = int(n_chains), len(param_names), len(blob_names)
         rows = max(1, min(1024, 2**18 // (8 * m * max(p, b, 1))))
-        f = h5py.File(path, "w", libver="latest")
+        try:
+            f = h5py.File(path, "w", libver="latest")
+        except OSError as err:  # no room for even the file's header
+            raise creation_failed(path, err) from err
         try:
             f.attrs.update(
                 {
@@ -95,52 +127,66 @@ class HDF5Store(Store):
                 _ROWS, [(m, p), (m,), (m, b), (m,)], ["f8", "f8", "f8", "bool"], strict=True
             ):
                 chunks = (rows, *tail) if all(tail) else True  # zero-width blobs: auto chunks
-                f.create_dataset(name, shape=(0, *tail), maxshape=(None, *tail), dtype=dt, chunks=chunks)
+                f.create_dataset(name, shape=(0, *tail), maxshape=(None, *tail), dtype=dt,
+                                 chunks=chunks, fletcher32=True)
             g = f.create_group("state")
             for name, tail in [("position", (m, p)), ("log_prob", (m,)), ("blobs", (m, b))]:
-                g.create_dataset(name, shape=(2, *tail), dtype="f8")
+                whole = all(tail)  # a zero-width dataset cannot be chunked
+                g.create_dataset(name, shape=(2, *tail), dtype="f8", fletcher32=whole,
+                                 chunks=(1, *tail) if whole else None)
             for s in (0, 1):
-                g.create_dataset(f"json{s}", shape=(0,), maxshape=(None,), dtype="u1", chunks=(4096,))
-                g.create_dataset(f"arrays{s}", shape=(0,), maxshape=(None,), dtype="f8", chunks=(4096,))
-            f.create_dataset("commit", data=np.array([0, -1, 0], dtype=np.int64))
+                for name, dt in ((f"json{s}", "u1"), (f"arrays{s}", "f8")):
+                    g.create_dataset(name, shape=(0,), maxshape=(None,), dtype=dt, chunks=(4096,),
+                                     fletcher32=True)
+            f.create_dataset("commit", data=np.array([0, -1, 0, *[0] * N_DIGEST], dtype=np.int64),
+                             chunks=(3 + N_DIGEST,), fletcher32=True)
             f.create_dataset("writer", shape=(256,), dtype="u1")
-            return cls._start_writing(f, path)
-        except BaseException:
-            f.close()
-            raise
+        except BaseException as err:
+            close_after_failure(f)
+            raise creation_failed(path, err) from err
+        return cls._start_writing(f, path)
 
     @classmethod
     def _start_writing(cls, f, path: str) -> HDF5Store:
         info = json.dumps({"pid": os.getpid(), "host": socket.gethostname()}).encode()[:256]
-        f["writer"][...] = np.frombuffer(info.ljust(256, b"\0"), dtype=np.uint8)
-        f.swmr_mode = True
-        return cls(f, path, writable=True)
+        try:
+            store = cls(f, path, writable=True)
+            store._ds("writer")[...] = np.frombuffer(info.ljust(256, b"\0"), dtype=np.uint8)
+            f.swmr_mode = True
+        except BaseException as err:
+            close_after_failure(f)
+            raise creation_failed(path, err) from err
+        _ABANDONED.discard(os.path.realpath(path))
+        return store
 
     @classmethod
     def open_append(cls, path: str | os.PathLike, recover: bool = True, force: bool = False) -> HDF5Store:
         """Reopen a run for writing; resume from ``.state`` (and ``.meta``, ``.n_saved``).
 
-        If a writer was killed, HDF5 refuses to reopen the file. With ``recover`` the committed
-        steps and state are copied into a fresh file at ``path`` and the damaged file is kept as
-        ``path + '.crashed'``. :class:`StoreBusy` is raised if the recorded writer is still
-        alive on this host, or runs on another host (unless ``force``).
+        If a writer was killed, or its last write failed (a full disk leaves the file shorter
+        than HDF5 expects), HDF5 refuses to reopen the file. With ``recover`` the committed
+        steps and state (checked against the commit's digest) are copied into a fresh file at
+        ``path`` and the damaged file is kept as ``path + '.crashed'``. :class:`StoreBusy` is
+        raised if the recorded writer is still alive on this host, or runs on another host
+        (unless ``force``).
         """
         h5py = _h5py()
         path = os.fspath(path)
         try:
             f = h5py.File(path, "r+", libver="latest")
-        except OSError as err:
-            if "already open for write" not in str(err):
-                raise
-            with h5py.File(path, "r", swmr=True) as fr:
-                raw = bytes(fr["writer"][...]).rstrip(b"\0")
-            w = json.loads(raw) if raw else {}
-            if w.get("host") != socket.gethostname() and not force:
+        except FileNotFoundError:
+            raise
+        except OSError as err:  # a killed writer, or one whose last write failed (disk full)
+            if "already open for write" not in str(err) and "truncated file" not in str(err):
+                raise unreadable(path, err) from err
+            w = _writer_record(path)  # {}: no writer recorded, none can be alive
+            if w and w.get("host") != socket.gethostname() and not force:
                 raise StoreBusy(
                     f"{path} is open for writing on host {w.get('host')!r}; "
                     "pass force=True if that writer is dead"
                 ) from err
-            if w.get("host") == socket.gethostname() and _pid_alive(int(w.get("pid", -1))):
+            if w.get("host") == socket.gethostname() and _pid_alive(int(w.get("pid", -1))) \
+                    and not (w["pid"] == os.getpid() and os.path.realpath(path) in _ABANDONED):
                 raise StoreBusy(f"{path} is being written by process {w['pid']}") from err
             if not recover:
                 raise
@@ -163,14 +209,20 @@ class HDF5Store(Store):
             src.close()
         tmp = path + ".recovering"
         new = cls.create(tmp, data.param_names, data.blob_names, src.n_chains, data.meta, overwrite=True)
+        rows = (data.chain, data.log_prob, data.blobs, data.accepted)
         try:
             if data.n_saved:
-                new._write_rows(0, data.chain, data.log_prob, data.blobs, data.accepted)
+                new._write_rows(0, *rows)
             if data.state is not None:
                 new._write_state(0, data.state)
-            new._commit(data.n_saved, 0 if data.state is not None else -1, gen)
-        finally:
+            new._commit(data.n_saved, 0 if data.state is not None else -1, gen,
+                        full_digest(rows, data.state))
+        except Exception as err:
+            failed = new._write_failed(err, 0)
             new.close()
+            os.unlink(tmp)
+            raise failed from err
+        new.close()
         os.replace(path, path + ".crashed")
         os.replace(tmp, path)
 
@@ -180,66 +232,134 @@ class HDF5Store(Store):
         path = os.fspath(path)
         h5py = _h5py()
         try:
-            f = h5py.File(path, "r", libver="latest", swmr=True)
-        except OSError as err:  # e.g. file systems without locking, or a stale lock
-            if "lock" not in str(err):
-                raise
-            f = h5py.File(path, "r", libver="latest", swmr=True, locking=False)
-        try:
-            return cls(f, path, writable=False)
-        except BaseException:
-            f.close()
+            try:
+                f = h5py.File(path, "r", libver="latest", swmr=True)
+            except OSError as err:  # e.g. file systems without locking, or a stale lock
+                if "lock" not in str(err):
+                    raise
+                f = h5py.File(path, "r", libver="latest", swmr=True, locking=False)
+        except FileNotFoundError:
             raise
+        except OSError as err:
+            raise unreadable(path, err) from err
+        try:
+            store = cls(f, path, writable=False)
+        except BaseException as err:
+            f.close()
+            if isinstance(err, KeyError | OSError | RuntimeError | ValueError):
+                raise unreadable(path, err) from err
+            raise
+        eof = hdf5_end_of_file(path)  # format 1 has no digest: a cut file is refused here
+        if store.meta.get("format_version") == 1 and eof is not None and os.path.getsize(path) < eof:
+            store.close()
+            raise store._damaged("a run of format 1 (no checksums) cut short")
+        return store
 
     def close(self) -> None:
         """Close the file (unflushed rows are discarded with a warning)."""
         if self.closed:
             return
         super().close()
+        if self._failed:  # the descriptor points at /dev/null: nothing more reaches the file
+            self._dsets.clear()
+            close_after_failure(self._f)
+            return
         try:
             if self.writable:
-                self._f["writer"][...] = 0
+                self._ds("writer")[...] = 0
         finally:
+            self._dsets.clear()
             self._f.close()
+
+    def _write_failed(self, err: Exception, n_saved: int) -> Exception:
+        """Stop writing: HDF5's descriptor to /dev/null (see the module docstring), then say
+        what failed, where the run stands and how much room it needs."""
+        self._failed = True
+        neutralise(self._f)
+        _ABANDONED.add(os.path.realpath(self.path))
+        m, width = self.n_chains, self.n_params + 1 + self.n_blobs
+        per_step = 8 * m * width + m
+        chunk = int(self._dsets["chain"].chunks[0]) if "chain" in self._dsets else 1
+        steps = self._committed_steps if self._committed_steps is not None else n_saved
+        reason = system_reason(err)
+        return StoreWriteFailed(
+            f"writing {self.path} failed: {reason}. The run is kept up to its last committed "
+            f"step ({steps} steps, {n_saved} stored); it needs about {human_bytes(per_step)} "
+            f"of disk a step, allocated {human_bytes(per_step * chunk)} at a time",
+            path=self.path, reason=reason, n_saved=n_saved, n_steps=steps,
+            bytes_per_step=per_step)
 
     # --- primitives -----------------------------------------------------------------------
     def _ds(self, name: str):
-        ds = self._f[name]
-        if not self.writable:
+        if not self.writable:  # a reader opens afresh: a kept dataset keeps stale chunks cached
+            ds = self._f[name]
             ds.refresh()
+            return ds
+        ds = self._dsets.get(name)
+        if ds is None:
+            ds = self._dsets[name] = self._f[name]
         return ds
 
-    def _read_commit(self) -> tuple[int, int, int]:
-        n, slot, gen = (int(v) for v in self._ds("commit")[...])
-        return n, slot, gen
+    def _read_commit(self) -> tuple[int, ...]:
+        for attempt in range(3):  # a reader may meet the record while the writer rewrites it
+            try:
+                rec = tuple(int(v) for v in self._ds("commit")[...])
+                break
+            except (KeyError, OSError, RuntimeError, ValueError) as err:
+                if attempt == 2 or self.writable:
+                    raise unreadable(self.path, err, "its commit record cannot be read") from err
+                time.sleep(0.01)
+        if len(rec) not in (3, 3 + N_DIGEST):
+            raise StoreDamaged(f"{self.path} is damaged: a commit record of {len(rec)} entries")
+        return rec
+
+    def _get(self, name: str, sel) -> np.ndarray:
+        """``dataset[sel]``; an error names the dataset and says what HDF5 found."""
+        try:
+            return self._ds(name)[sel]
+        except Exception as err:
+            first = str(err).splitlines()[0] if str(err) else type(err).__name__
+            if "filter returned failure" in first:
+                first = "a block fails its fletcher32 checksum"
+            raise OSError(f"{name}: {first}") from err
 
     def _read_rows(self, stop: int) -> tuple[np.ndarray, ...]:
-        return tuple(self._ds(name)[:stop] for name in _ROWS)
+        return tuple(self._get(name, slice(None, stop)) for name in _ROWS)
 
     def _read_state(self, slot: int) -> RunState:
         g = "state/"
-        d = _loads(bytes(self._ds(f"{g}json{slot}")[...]))
-        flat = self._ds(f"{g}arrays{slot}")[...]
+        raw = bytes(self._get(f"{g}json{slot}", ...))
+        try:
+            d = _loads(raw)
+        except ValueError as err:  # UnicodeDecodeError, JSONDecodeError
+            raise ValueError(f"{g}json{slot}: not the JSON written ({err})") from err
+        flat = self._get(f"{g}arrays{slot}", ...)
         arrays = {k: flat[o : o + int(np.prod(s))].reshape(s) for k, (o, s) in d["index"].items()}
         return RunState(
-            self._ds(g + "position")[slot],
-            self._ds(g + "log_prob")[slot],
-            self._ds(g + "blobs")[slot],
+            self._get(g + "position", slot),
+            self._get(g + "log_prob", slot),
+            self._get(g + "blobs", slot),
             d["rng_state"],
             d["extra"],
             arrays,
         )
 
+    def _damaged(self, what: str) -> StoreDamaged:
+        eof, size = hdf5_end_of_file(self.path), os.path.getsize(self.path)
+        cut = f"it is truncated ({size} of {eof} bytes); " if eof is not None and size < eof else ""
+        return StoreDamaged(f"{self.path} is damaged: {cut}{what}; it is not read")
+
     def _write_rows(self, start, chain, log_prob, blobs, accepted) -> None:
         stop = start + len(chain)
         for name, arr in zip(_ROWS, [chain, log_prob, blobs, accepted], strict=True):
-            ds = self._f[name]
+            ds = self._ds(name)
             ds.resize(stop, axis=0)
             if arr.size:
                 ds[start:stop] = arr
 
     def _write_state(self, slot: int, state: RunState) -> None:
-        g = self._f["state"]
+        g = {k: self._ds(f"state/{k}") for k in ("position", "log_prob", "blobs", f"json{slot}",
+                                                  f"arrays{slot}")}
         g["position"][slot] = state.position
         g["log_prob"][slot] = state.log_prob
         if state.blobs.size:
@@ -256,31 +376,12 @@ class HDF5Store(Store):
         if offset:
             g[f"arrays{slot}"][:] = np.concatenate([a.ravel() for a in state.arrays.values()])
 
-    def _commit(self, n_saved: int, slot: int, generation: int) -> None:
+    def _commit(self, n_saved: int, slot: int, generation: int, digest: tuple = ()) -> None:
         self._f.flush()  # rows and state reach the file before the commit that exposes them
-        self._f["commit"][...] = np.array([n_saved, slot, generation], dtype=np.int64)
+        ds = self._ds("commit")
+        rec = [n_saved, slot, generation, *digest][: ds.shape[0]]  # format 1: no digest
+        ds[...] = np.array(rec, dtype=np.int64)
         self._f.flush()
-
-
-def _pid_alive(pid: int) -> bool:
-    """Whether process ``pid`` still runs. A zombie does not: it has exited and holds no file,
-    but ``kill(pid, 0)`` still finds it until its parent reaps it (a killed batch's Dask worker,
-    orphaned, stays a zombie for about a second here before init reaps it; a batch run again
-    at once found its store "being written" by it, tests/test_batch.py)."""
-    if pid <= 0:
-        return False
-    try:
-        os.kill(pid, 0)
-    except ProcessLookupError:
-        return False
-    except PermissionError:
-        pass
-    try:  # Linux: the state letter after the command name in /proc/<pid>/stat
-        with open(f"/proc/{pid}/stat", encoding="ascii", errors="replace") as fh:
-            state = fh.read().rsplit(")", 1)[1].split()[0]
-    except (OSError, IndexError):
-        return True
-    return state not in ("Z", "X")
 
 
 def read_run(path: str | os.PathLike) -> RunData:

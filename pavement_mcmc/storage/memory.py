@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from .base import Store
+from .integrity import N_DIGEST
 from .records import RunState, _dumps, _loads
 
 
@@ -18,7 +19,7 @@ class _MemoryRun:
             np.zeros((0, m), dtype=bool),
         ]
         self.slots: list[str | None] = [None, None]  # JSON of each state slot
-        self.commit = (0, -1, 0)
+        self.commit = (0, -1, 0, *[0] * N_DIGEST)
 
 
 class MemoryStore(Store):
@@ -53,7 +54,7 @@ class MemoryStore(Store):
             store._run, store.param_names, store.blob_names, store.n_chains, store.meta, writable=False
         )
 
-    def _read_commit(self) -> tuple[int, int, int]:
+    def _read_commit(self) -> tuple[int, ...]:
         return self._run.commit
 
     def _read_rows(self, stop: int) -> tuple[np.ndarray, ...]:
@@ -77,5 +78,5 @@ class MemoryStore(Store):
     def _write_state(self, slot: int, state: RunState) -> None:
         self._run.slots[slot] = _dumps(vars(state))
 
-    def _commit(self, n_saved: int, slot: int, generation: int) -> None:
-        self._run.commit = (n_saved, slot, generation)
+    def _commit(self, n_saved: int, slot: int, generation: int, digest: tuple = ()) -> None:
+        self._run.commit = (n_saved, slot, generation, *digest)
