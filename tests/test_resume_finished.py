@@ -72,3 +72,22 @@ def test_refit_with_overwrite_removes_the_old_report(finished_run, tmp_path):
     fit(REPO / "runs" / "caseA.toml", run, overwrite=True, seed=1,
         overrides={"sampler": {"kind": "fast", "max_steps": 160}})
     assert not (run / "report.html").exists()
+
+
+def test_a_resume_is_held_to_the_rule_stored_with_the_run(finished_run, tmp_path):
+    """The rule is stored with the run so that a later change of StoppingRule's defaults does
+    not re-judge it: a resume must continue under the stored rule, not today's defaults."""
+    from pavement_mcmc.diagnostics.stopping import StoppingRule
+    from pavement_mcmc.runs import resume
+    from pavement_mcmc.runs.folder import RunFolder
+
+    f = RunFolder(_copy(finished_run, tmp_path))
+    stored = StoppingRule(ess_target=30, rhat_max=1.5, min_tau_lengths=7, drift_z=9)
+    assert stored != StoppingRule(ess_target=30)
+    f.result.unlink()  # killed before it finished: the rule is config.json's
+    rec = f.read_config()
+    rec["rule"] = stored.to_dict()
+    f.write_config(rec)
+    out = resume(f.path)
+    assert out.result.rule == stored
+    assert f.read_result()["rule"] == stored.to_dict() == f.read_config()["rule"]

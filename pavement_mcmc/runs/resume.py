@@ -110,7 +110,9 @@ def resume(run_dir: str | Path, *, max_seconds: float | None = None, callback=No
                            "without converging; ask for more with --more-steps N")
         smp = _sampler_for(problem, cfg)
         smp.set_state(state)
-        res = _run(problem, smp, store, scfg, callback, max_seconds, min_steps)
+        # held to the rule stored with the run (a later change of the defaults re-judges none)
+        res = _run(problem, smp, store, scfg, callback, max_seconds, min_steps,
+                   folder.rule(cfg.sampler))
     if ess_target is not None:  # the new target is the run's rule from now on
         rec["overrides"], rec["rule"] = overrides, res.rule.to_dict()
         folder.write_config(rec)
