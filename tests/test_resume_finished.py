@@ -91,3 +91,26 @@ def test_a_resume_is_held_to_the_rule_stored_with_the_run(finished_run, tmp_path
     out = resume(f.path)
     assert out.result.rule == stored
     assert f.read_result()["rule"] == stored.to_dict() == f.read_config()["rule"]
+
+
+def test_a_resume_killed_midway_leaves_an_unfinished_run(finished_run, tmp_path):
+    """While a resume adds rows, the old result.json describes another chain: a run killed
+    then must read as unfinished (not as the finished old one, whose n_saved it contradicts)."""
+    import pytest
+
+    from pavement_mcmc.runs import resume
+    from pavement_mcmc.runs.folder import RunFolder
+
+    f = RunFolder(_copy(finished_run, tmp_path))
+    before = read_run(f.chain).n_saved
+
+    def kill(info):
+        raise KeyboardInterrupt
+
+    with pytest.raises(KeyboardInterrupt):
+        resume(f.path, more_steps=200, callback=kill)
+    assert read_run(f.chain).n_saved > before
+    assert f.state == "unfinished" and f.unfinished_reason() is not None
+    assert not f.summary_csv.exists()
+    out = resume(f.path, more_steps=20)  # and it continues
+    assert out.ran and f.state == "finished"

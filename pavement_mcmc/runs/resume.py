@@ -111,13 +111,14 @@ def resume(run_dir: str | Path, *, max_seconds: float | None = None, callback=No
         smp = _sampler_for(problem, cfg)
         smp.set_state(state)
         # held to the rule stored with the run (a later change of the defaults re-judges none)
-        res = _run(problem, smp, store, scfg, callback, max_seconds, min_steps,
-                   folder.rule(cfg.sampler))
+        rule = folder.rule(cfg.sampler)
+        removed = folder.report.exists()  # a report of the old chain would now mislead
+        for stale in folder.outputs():  # they describe the old chain: until _finish writes
+            stale.unlink(missing_ok=True)  # them anew the run is unfinished (if killed, too)
+        res = _run(problem, smp, store, scfg, callback, max_seconds, min_steps, rule)
     if ess_target is not None:  # the new target is the run's rule from now on
         rec["overrides"], rec["rule"] = overrides, res.rule.to_dict()
         folder.write_config(rec)
-    removed = folder.report.exists()  # a report of the old chain would now mislead
-    folder.report.unlink(missing_ok=True)
     return replace(_finish(run_dir, problem, res), report_removed=removed)
 
 
