@@ -99,3 +99,10 @@ def test_minus_9999_is_missing_however_it_is_written(tmp_path):
     m = load_case(_toml(tmp_path, "utc_offset_hours = -7\nmax_gap_fill = 1\n" + DEPTHS)).measurements
     assert m.extras["LE"][4] == pytest.approx(54.0)
     assert m.fill_report == (("LE", 5, 5),)
+
+
+@pytest.mark.parametrize("offset", ["30", "nan", "-15"])
+def test_an_impossible_utc_offset_is_a_clear_error(tmp_path, offset):
+    _site(tmp_path)
+    with pytest.raises(DataError, match=r"utc_offset_hours = .*between -12 and \+14"):
+        load_case(_toml(tmp_path, f"utc_offset_hours = {offset}\nmax_gap_fill = 1\n" + DEPTHS))

@@ -160,6 +160,9 @@ def apply_preset(table: _Table, preset: str, *, utc_offset_hours: float | None =
     if utc_offset_hours is None:
         raise DataError(f"{table.path}: preset {preset!r} needs utc_offset_hours (the file's "
                         "local standard time, e.g. -7 for MST)")
+    if not -12.0 <= float(utc_offset_hours) <= 14.0:  # also NaN
+        raise DataError(f"{table.path}: utc_offset_hours = {utc_offset_hours!r}; a time zone's "
+                        "offset from UTC is between -12 and +14 hours")
     columns = dict(columns or {})
     unknown = sorted(set(depths_cm or {}) - set(table.header))
     if unknown:
