@@ -174,3 +174,22 @@ def test_drift_measures_trend_and_scatter_in_units_of_the_intervals():
     d = drift(rows, "x")
     assert d.n == 5 and d.slope == pytest.approx(0.1) and d.half_width == pytest.approx(0.1)
     assert d.chi2_dof == pytest.approx(np.sum(((np.arange(5) - 2) * 0.1 / (0.2 / 3.92)) ** 2) / 4)
+
+
+def test_a_unit_whose_run_failed_is_retried_not_read_back_as_sampled(tmp_path):
+    """An error outside UNIT_ERRORS leaves result.json saying failed and no unit.json, and goes
+    to Dask to be retried: the retry must sample again, not take the failed run for a sampled
+    one and report its partial chain as 'not converged'."""
+    from pavement_mcmc.batch.unit import run_unit
+    from pavement_mcmc.runs import RunFolder
+
+    unit = _units()[0]
+    first = run_unit(unit, tmp_path, seed := 5)
+    assert first["status"] == "ok", first
+    folder = RunFolder(tmp_path / first["run_dir"])
+    folder.unit.unlink()
+    folder.write_result({"failed": True, "converged": False,
+                         "reason": "failed: RuntimeError: worker lost its GPU"})
+    row = run_unit(unit, tmp_path, seed)
+    assert row["status"] == "ok" and "RuntimeError" not in row["reason"], row
+    assert folder.state == "finished"

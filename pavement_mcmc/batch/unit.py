@@ -6,8 +6,9 @@
 
 * ``unit.json`` present: the unit finished earlier; its row is returned, nothing recomputed
   (unless ``result.json`` is newer: the run was continued with ``resume``; the row is re-read);
-* ``chain.h5`` with a saved block but no ``unit.json``: the unit was killed; it is continued
-  with :func:`~pavement_mcmc.runs.resume`, bit for bit;
+* ``chain.h5`` with a saved block but no ``unit.json``: the unit was killed (or its run failed
+  on an error Dask retries); it is continued with :func:`~pavement_mcmc.runs.resume`, bit for
+  bit;
 * otherwise it is fitted from scratch with the seed :func:`~.units.unit_seed` gives its key.
 
 The row is always computed from the stored chain, so a unit that was interrupted and resumed
@@ -88,8 +89,9 @@ def _folder(key: str) -> str:
 
 
 def _sample(unit: Unit, run_dir: Path, batch_seed: int, max_seconds) -> None:
-    if RunFolder(run_dir).result.exists():
+    if RunFolder(run_dir).finished:
         return  # sampled, killed while writing unit.json: the chain is complete
+    # failed (an error Dask retries) or unfinished: continue it, else fit it again
     if _resumable(run_dir):
         try:
             resume(run_dir, max_seconds=max_seconds)
