@@ -114,3 +114,21 @@ def test_a_resume_killed_midway_leaves_an_unfinished_run(finished_run, tmp_path)
     assert not f.summary_csv.exists()
     out = resume(f.path, more_steps=20)  # and it continues
     assert out.ran and f.state == "finished"
+
+
+def test_a_new_ess_target_is_the_rule_even_if_the_resume_is_killed(finished_run, tmp_path):
+    """resume --ess-target N killed midway: the folder is unfinished, and the next resume must
+    continue towards N (config.json's rule), not stop at once under the old target."""
+    import pytest
+
+    from pavement_mcmc.runs import resume
+    from pavement_mcmc.runs.folder import RunFolder
+
+    f = RunFolder(_copy(finished_run, tmp_path))
+
+    def kill(info):
+        raise KeyboardInterrupt
+
+    with pytest.raises(KeyboardInterrupt):
+        resume(f.path, ess_target=3000, callback=kill)
+    assert f.rule().ess_target == 3000 == f.read_config()["rule"]["ess_target"]
