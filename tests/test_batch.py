@@ -215,3 +215,22 @@ def test_a_worker_out_of_memory_is_reported_for_its_unit_and_the_others_run():
         ok = map_units(_square, [3], client=c, retries=0)
     assert isinstance(out[0], Failure) and "KilledWorker" in out[0].reason, out
     assert "out of memory?" in out[0].reason and ok == [9]
+
+
+def test_a_unit_whose_run_failed_is_retried_not_read_back_as_sampled(tmp_path):
+    """An error outside UNIT_ERRORS leaves result.json saying failed and no unit.json, and goes
+    to Dask to be retried: the retry must sample again, not take the failed run for a sampled
+    one and report its partial chain as 'not converged'."""
+    from pavement_mcmc.batch.unit import run_unit
+    from pavement_mcmc.runs import RunFolder
+
+    unit = _units()[0]
+    first = run_unit(unit, tmp_path, seed := 5)
+    assert first["status"] == "ok", first
+    folder = RunFolder(tmp_path / first["run_dir"])
+    folder.unit.unlink()
+    folder.write_result({"failed": True, "converged": False,
+                         "reason": "failed: RuntimeError: worker lost its GPU"})
+    row = run_unit(unit, tmp_path, seed)
+    assert row["status"] == "ok" and "RuntimeError" not in row["reason"], row
+    assert folder.state == "finished"

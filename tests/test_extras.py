@@ -114,3 +114,30 @@ def test_ir_stream_adds_its_offset_and_blob(tmp_path):
     with pytest.raises(ConfigError, match="measured top"):
         build_problem(load_case(_toml(tmp_path, 'extras = "extras.csv"\nir_sigma = 0.5\n'
                                                 '[model]\ntop = "measured"')))
+
+
+def test_unfillable_gap_in_an_unused_extra_does_not_refuse_the_case(tmp_path):
+    """Flux-site extras (LE, H, SW_out ...) have long gaps: a series nobody uses must not make
+    the case unreadable. It keeps NaN where it cannot be filled; the IR stream, which uses
+    T_surf_IR, refuses its gap clearly."""
+    path = _extras_csv(tmp_path)
+    lines = path.read_text().splitlines()
+    for k in (1, 2, 3, 4, 5):  # 00:00-01:00: the window's first three times, an edge gap
+        t, ir, sw, ws = lines[k].split(",")
+        lines[k] = f"{t},,,{ws}"
+    path.write_text("\n".join(lines) + "\n")
+    m = read_csv_case(_case_csv(tmp_path), sigma=0.1, extras=path)
+    assert np.isnan(m.extras["SW_in"][:3]).all() and np.isfinite(m.extras["SW_in"][3:]).all()
+    np.testing.assert_allclose(m.extras["SW_in"][3:], m.t[3:] / 60)  # SW_in = minute
+    with pytest.raises(ConfigError, match=r"T_surf_IR has 3 missing values.*window_hours"):
+        build_problem(load_case(_toml(tmp_path, 'extras = "extras.csv"\nir_sigma = 0.5')))
+
+
+def test_unfillable_gap_in_an_extra_of_the_case_csv_stays_nan(tmp_path):
+    path = _case_csv(tmp_path)
+    lines = path.read_text().splitlines()
+    lines[0] += ",RH"
+    lines[1:] = [ln + ("," if k >= N - 2 else ",55") for k, ln in enumerate(lines[1:])]
+    path.write_text("\n".join(lines) + "\n")
+    m = read_csv_case(path, sigma=0.1)
+    assert np.isnan(m.extras["RH"][-2:]).all() and (m.extras["RH"][:-2] == 55).all()

@@ -88,3 +88,21 @@ def test_fluxnet_prefers_the_consolidated_columns(tmp_path):
     toml.write_text(toml.read_text().replace('"ameriflux"', '"fluxnet"'))
     m = load_case(toml).measurements  # TA_F (20 + 0.1 i) taken, TA_F_MDS (-9999) left
     np.testing.assert_allclose(m.T_air, 20 + 0.1 * np.arange(N), atol=1e-9)
+
+
+def test_minus_9999_is_missing_however_it_is_written(tmp_path):
+    """A file re-saved by a spreadsheet or pandas writes the missing value as -9999.0: still
+    missing, not a reading of -9999 W m-2 refused as out of range."""
+    path = _site(tmp_path)
+    path.write_text(path.read_text().replace(",-9999,", ",-9999.0,"))
+    assert ",-9999.0," in path.read_text()
+    m = load_case(_toml(tmp_path, "utc_offset_hours = -7\nmax_gap_fill = 1\n" + DEPTHS)).measurements
+    assert m.extras["LE"][4] == pytest.approx(54.0)
+    assert m.fill_report == (("LE", 5, 5),)
+
+
+@pytest.mark.parametrize("offset", ["30", "nan", "-15"])
+def test_an_impossible_utc_offset_is_a_clear_error(tmp_path, offset):
+    _site(tmp_path)
+    with pytest.raises(DataError, match=r"utc_offset_hours = .*between -12 and \+14"):
+        load_case(_toml(tmp_path, f"utc_offset_hours = {offset}\nmax_gap_fill = 1\n" + DEPTHS))

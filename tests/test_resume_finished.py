@@ -72,3 +72,63 @@ def test_refit_with_overwrite_removes_the_old_report(finished_run, tmp_path):
     fit(REPO / "runs" / "caseA.toml", run, overwrite=True, seed=1,
         overrides={"sampler": {"kind": "fast", "max_steps": 160}})
     assert not (run / "report.html").exists()
+
+
+def test_a_resume_is_held_to_the_rule_stored_with_the_run(finished_run, tmp_path):
+    """The rule is stored with the run so that a later change of StoppingRule's defaults does
+    not re-judge it: a resume must continue under the stored rule, not today's defaults."""
+    from pavement_mcmc.diagnostics.stopping import StoppingRule
+    from pavement_mcmc.runs import resume
+    from pavement_mcmc.runs.folder import RunFolder
+
+    f = RunFolder(_copy(finished_run, tmp_path))
+    stored = StoppingRule(ess_target=30, rhat_max=1.5, min_tau_lengths=7, drift_z=9)
+    assert stored != StoppingRule(ess_target=30)
+    f.result.unlink()  # killed before it finished: the rule is config.json's
+    rec = f.read_config()
+    rec["rule"] = stored.to_dict()
+    f.write_config(rec)
+    out = resume(f.path)
+    assert out.result.rule == stored
+    assert f.read_result()["rule"] == stored.to_dict() == f.read_config()["rule"]
+
+
+def test_a_resume_killed_midway_leaves_an_unfinished_run(finished_run, tmp_path):
+    """While a resume adds rows, the old result.json describes another chain: a run killed
+    then must read as unfinished (not as the finished old one, whose n_saved it contradicts)."""
+    import pytest
+
+    from pavement_mcmc.runs import resume
+    from pavement_mcmc.runs.folder import RunFolder
+
+    f = RunFolder(_copy(finished_run, tmp_path))
+    before = read_run(f.chain).n_saved
+
+    def kill(info):
+        raise KeyboardInterrupt
+
+    with pytest.raises(KeyboardInterrupt):
+        resume(f.path, more_steps=200, callback=kill)
+    assert read_run(f.chain).n_saved > before
+    assert f.state == "unfinished" and f.unfinished_reason() is not None
+    assert not f.summary_csv.exists()
+    out = resume(f.path, more_steps=20)  # and it continues
+    assert out.ran and f.state == "finished"
+
+
+def test_a_new_ess_target_is_the_rule_even_if_the_resume_is_killed(finished_run, tmp_path):
+    """resume --ess-target N killed midway: the folder is unfinished, and the next resume must
+    continue towards N (config.json's rule), not stop at once under the old target."""
+    import pytest
+
+    from pavement_mcmc.runs import resume
+    from pavement_mcmc.runs.folder import RunFolder
+
+    f = RunFolder(_copy(finished_run, tmp_path))
+
+    def kill(info):
+        raise KeyboardInterrupt
+
+    with pytest.raises(KeyboardInterrupt):
+        resume(f.path, ess_target=3000, callback=kill)
+    assert f.rule().ess_target == 3000 == f.read_config()["rule"]["ess_target"]

@@ -6,8 +6,9 @@
 
 * ``unit.json`` present: the unit finished earlier; its row is returned, nothing recomputed
   (unless ``result.json`` is newer: the run was continued with ``resume``; the row is re-read);
-* ``chain.h5`` with a saved block but no ``unit.json``: the unit was killed; it is continued
-  with :func:`~pavement_mcmc.runs.resume`, bit for bit;
+* ``chain.h5`` with a saved block but no ``unit.json``: the unit was killed (or its run failed
+  on an error Dask retries); it is continued with :func:`~pavement_mcmc.runs.resume`, bit for
+  bit;
 * a ``chain.h5`` that is damaged (:class:`~pavement_mcmc.storage.StoreDamaged`) is not read:
   the unit is fitted again (same seed, same chain);
 * otherwise it is fitted from scratch with the seed :func:`~.units.unit_seed` gives its key.
@@ -33,7 +34,6 @@ import numpy as np
 
 from ..data import ConfigError, DataError
 from ..runs import RunFolder, fit, load_kept, resume
-from ..runs.resume import stored_result
 from ..runs.tables import plausibility, statistics_table
 from ..storage import StoreBusy, StoreMismatch
 from .units import Unit, unit_seed
@@ -123,8 +123,9 @@ def _folder(key: str) -> str:
 
 def _sample(unit: Unit, run_dir: Path, batch_seed: int, max_seconds) -> None:
     whole = _resumable(run_dir)  # False for a chain file that is missing or damaged
-    if whole and stored_result(run_dir) is not None:
+    if whole and RunFolder(run_dir).finished:
         return  # sampled, killed while writing unit.json: the chain is complete
+    # failed (an error Dask retries) or unfinished: continue it, else fit it again
     if whole:
         try:
             resume(run_dir, max_seconds=max_seconds)

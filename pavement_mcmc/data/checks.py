@@ -130,8 +130,11 @@ def _numeric_column(
     t: np.ndarray,
     max_gap_fill: int,
     fills: list[tuple[str, int, int]],
+    keep_gaps: bool = False,
 ) -> np.ndarray:
-    """Parse one column over the window rows; fill interior gaps up to ``max_gap_fill``."""
+    """Parse one column over the window rows; fill interior gaps up to ``max_gap_fill``.
+    A gap that cannot be filled is a DataError, or with ``keep_gaps`` stays NaN (an optional
+    series: its user refuses it)."""
     name = table.header[col]
     out = np.empty(idx.size)
     for j, i in enumerate(idx):
@@ -154,7 +157,11 @@ def _numeric_column(
         rows = f"{table.where(idx[a])}" + (f" to {table.where(idx[b])}" if b > a else "")
         n = b - a + 1
         what = f"{n} consecutive missing values" if n > 1 else "missing value"
-        if a == 0 or b == idx.size - 1:
+        edge = a == 0 or b == idx.size - 1
+        if keep_gaps and (edge or n > max_gap_fill):
+            missing[a : b + 1] = False  # left as NaN
+            continue
+        if edge:
             raise table.error(
                 f"{what} at the edge of the time window, {rows}; edge gaps cannot be "
                 "interpolated (narrow window_hours instead)",
@@ -166,7 +173,9 @@ def _numeric_column(
                 name,
             )
         fills.append((name, int(idx[a]) + 1, int(idx[b]) + 1))
-    out[missing] = np.interp(t[missing], t[~missing], out[~missing])
+    if missing.any():
+        known = np.isfinite(out)
+        out[missing] = np.interp(t[missing], t[known], out[known])
     return out
 
 

@@ -19,8 +19,11 @@ separated, a ``time`` column, other columns ignored). The second file is merged 
 must have a row at every time of the case's window (within 0.5 s; rows between or outside them
 are ignored), and a column the case CSV also provides is refused. ``[data.columns]`` renames
 apply to both files (a source column belongs to the file that has it). Missing cells follow
-``max_gap_fill`` as in the case CSV. Errors are :class:`~pavement_mcmc.data.DataError` naming
-the file, the column and the row.
+``max_gap_fill`` as in the case CSV, but a gap it cannot fill (at the window's edge, or
+longer) stays NaN instead of refusing the case: flux-site series (LE, H) have long gaps and
+an unused one must not make the data unreadable; a stream that uses the series refuses its
+gaps (:class:`~pavement_mcmc.posterior.surface_ir.SurfaceIR`). Errors are
+:class:`~pavement_mcmc.data.DataError` naming the file, the column and the row.
 """
 
 from __future__ import annotations
@@ -50,7 +53,12 @@ TIME_TOL = 0.5
 
 
 def check_extra(table: _Table, col: int, arr: np.ndarray, idx: np.ndarray, role: str) -> None:
-    """Plausibility of one extra series (range, kelvin, a fraction given for a percentage)."""
+    """Plausibility of one extra series (range, kelvin, a fraction given for a percentage) where
+    it has values (its unfillable gaps are NaN)."""
+    known = np.isfinite(arr)
+    if not known.any():
+        return
+    arr, idx = arr[known], idx[known]
     if role == "T_surf_IR":
         _check_temperature(table, col, arr, idx)
     elif role == "RH":
@@ -89,7 +97,7 @@ def merge_extras(table: _Table, stamps: np.ndarray, t: np.ndarray, columns: Mapp
     idx = _match(table, times, stamps, case_path)
     out = {}
     for role, col in found.items():
-        arr = _numeric_column(table, col, idx, t, max_gap_fill, fills)
+        arr = _numeric_column(table, col, idx, t, max_gap_fill, fills, keep_gaps=True)
         check_extra(table, col, arr, idx, role)
         out[role] = arr
     return out

@@ -59,7 +59,7 @@ VARIABLES = {"TA": "T_air", "NETRAD": "q_net", "WS": "wind", "P": "rain", "RH": 
              "SW_IN": "SW_in", "SW_OUT": "SW_out", "LW_IN": "LW_in", "LW_OUT": "LW_out",
              "T_CANOPY": "T_surf_IR", "LE": "LE", "H": "H"}
 TIMESTAMPS = ("start", "middle", "end")
-MISSING = "-9999"
+MISSING_VALUE = -9999.0
 _NAME = re.compile(r"^(?P<var>[A-Z]+(?:_[A-Z]+)*?)(?P<suffix>_F_MDS|_F)?(?P<pos>(?:_\d+)*)$")
 
 
@@ -67,6 +67,14 @@ def _variable(name: str) -> str | None:
     """The AmeriFlux variable of a column name (``TA_1_2_1`` -> ``TA``, ``TA_F`` -> ``TA``)."""
     m = _NAME.match(name)
     return m.group("var") if m else None
+
+
+def _missing(text: str) -> bool:
+    """``-9999`` however it is written (``-9999.0`` after a re-save)."""
+    try:
+        return float(text) == MISSING_VALUE
+    except ValueError:
+        return False
 
 
 def _stamp(table: _Table, col: int, i: int, tz: timezone) -> float:
@@ -91,7 +99,7 @@ def _times(table: _Table, utc_offset_hours: float, timestamp: str) -> list[str]:
     cols = [table.header.index(n) for n in need]
     out = []
     for i, row in enumerate(table.rows):
-        if row[cols[0]] == MISSING:
+        if _missing(row[cols[0]]):
             raise table.error("missing time", need[0], i)
         s = [_stamp(table, c, i, tz) for c in cols]
         out.append(format_time(sum(s) / len(s)))
@@ -152,6 +160,9 @@ def apply_preset(table: _Table, preset: str, *, utc_offset_hours: float | None =
     if utc_offset_hours is None:
         raise DataError(f"{table.path}: preset {preset!r} needs utc_offset_hours (the file's "
                         "local standard time, e.g. -7 for MST)")
+    if not -12.0 <= float(utc_offset_hours) <= 14.0:  # also NaN
+        raise DataError(f"{table.path}: utc_offset_hours = {utc_offset_hours!r}; a time zone's "
+                        "offset from UTC is between -12 and +14 hours")
     columns = dict(columns or {})
     unknown = sorted(set(depths_cm or {}) - set(table.header))
     if unknown:
@@ -160,6 +171,6 @@ def apply_preset(table: _Table, preset: str, *, utc_offset_hours: float | None =
     times = _times(table, utc_offset_hours, timestamp)
     roles = _roles(table, preset, depths_cm or {}, columns)
     keep = sorted(roles)
-    rows = [[t] + ["" if r[k] == MISSING else r[k] for k in keep]
+    rows = [[t] + ["" if _missing(r[k]) else r[k] for k in keep]
             for t, r in zip(times, table.rows, strict=True)]
     return _Table(table.path, ["time"] + [roles[k] for k in keep], rows, table.lines)

@@ -170,7 +170,8 @@ def read_csv_case(
     named = {}
     for role in EXTRA_ROLES:
         if role in roles:
-            named[role] = column(roles[role])
+            named[role] = _numeric_column(table, roles[role], idx, t, max_gap_fill, fills,
+                                          keep_gaps=True)  # unfillable gaps: NaN
             check_extra(table, roles[role], named[role], idx, role)
     if etable is not None:
         named.update(merge_extras(etable, stamps[idx], t, emap, max_gap_fill, fills, set(named),

@@ -50,6 +50,11 @@ class SurfaceIR(Observation):
             raise ValueError(f"ir_sigma must be > 0, got {sigma!r}")
         self.sigma = float(sigma)
         self.data = np.asarray(meas.extras[COLUMN], float)[1:, None]  # (n_obs - 1, 1)
+        n_gap = int(np.sum(~np.isfinite(meas.extras[COLUMN])))
+        if n_gap:
+            raise ValueError(f"{COLUMN} has {n_gap} missing values in the case's window that "
+                             "max_gap_fill cannot fill (at its edge or too long); narrow "
+                             "window_hours or raise max_gap_fill")
 
     def parameters(self) -> list:
         return [Parameter("ir_offset", 0.0, -20.0, 20.0,

@@ -53,10 +53,12 @@ def _sampler_for(problem: Problem, cfg):
 
 
 def _run(problem, sampler, store, scfg, callback, max_seconds,
-         min_steps: int = 0) -> RunResult:
+         min_steps: int = 0, base_rule=None) -> RunResult:
+    """Run the loop; ``base_rule``: the rule stored with a resumed run (its ESS target is the
+    case's as resumed), default :class:`~pavement_mcmc.diagnostics.StoppingRule`'s defaults."""
     return run_sampler(
         sampler, store,
-        rule=case_rule(scfg), max_steps=int(scfg["max_steps"]),
+        rule=case_rule(scfg, base_rule), max_steps=int(scfg["max_steps"]),
         max_seconds=max_seconds if max_seconds is not None else scfg.get("max_seconds"),
         burn_in=scfg.get("burn_in"), thin=int(scfg.get("thin") or 1),
         callback=callback, min_steps=min_steps,

@@ -10,8 +10,8 @@
     report.html   the report (``pavement-mcmc report``)
     unit.json     a finished batch unit's table row (:mod:`pavement_mcmc.batch.unit`)
 
-A run is *empty* (no chain yet), *unfinished* (a chain and no ``result.json``: running, killed
-or stopped before its first block ended), *failed* (``result.json`` says so) or *finished*
+A run is *empty* (no chain yet), *unfinished* (a chain and no ``result.json``: running, being
+resumed, killed or stopped before its first block ended), *failed* (``result.json`` says so) or *finished*
 (converged or stopped by its budget: ``converged`` tells which).
 """
 

@@ -14,7 +14,7 @@ from ..posterior import build_problem
 from ..storage import HDF5Store, StoreWriteFailed
 from .casefile import store_meta
 from .fit import FitOutput, _finish, _run, _sampler_for, resume_hint
-from .folder import RunFolder
+from .folder import RunFolder, case_rule
 from .kept import keep
 from .loop import RunResult
 from .tables import plausibility, statistics_table
@@ -110,15 +110,19 @@ def resume(run_dir: str | Path, *, max_seconds: float | None = None, callback=No
                            "without converging; ask for more with --more-steps N")
         smp = _sampler_for(problem, cfg)
         smp.set_state(state)
+        # held to the rule stored with the run (a later change of the defaults re-judges none)
+        rule = folder.rule(cfg.sampler)
+        if ess_target is not None:  # the new target is the run's rule from now on (if killed,
+            rec["overrides"] = overrides  # the next resume continues towards it)
+            rec["rule"] = case_rule(scfg, rule).to_dict()
+            folder.write_config(rec)
+        removed = folder.report.exists()  # a report of the old chain would now mislead
+        for stale in folder.outputs():  # they describe the old chain: until _finish writes
+            stale.unlink(missing_ok=True)  # them anew the run is unfinished (if killed, too)
         try:
-            res = _run(problem, smp, store, scfg, callback, max_seconds, min_steps)
+            res = _run(problem, smp, store, scfg, callback, max_seconds, min_steps, rule)
         except StoreWriteFailed as err:
             raise resume_hint(err, run_dir) from None
-    if ess_target is not None:  # the new target is the run's rule from now on
-        rec["overrides"], rec["rule"] = overrides, res.rule.to_dict()
-        folder.write_config(rec)
-    removed = folder.report.exists()  # a report of the old chain would now mislead
-    folder.report.unlink(missing_ok=True)
     return replace(_finish(run_dir, problem, res), report_removed=removed)
 
 
