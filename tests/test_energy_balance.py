@@ -123,3 +123,30 @@ def test_energy_balance_is_named_not_a_default_candidate():
     assert "energy_balance" in extension_names()
     assert "energy_balance" not in candidate_names()
     assert "wind_convection" in candidate_names()
+
+
+def test_energy_figure_and_report_section(twin):
+    """The figure holds Rn and the three fluxes (medians with bands) through the window and the
+    mean day; the report section reads the draws of a run view and skips other models."""
+    from pavement_mcmc.report.energy import energy_section
+
+    pb, _ = twin
+    rng = np.random.default_rng(0)
+    th = pb.space.initial()[None, :] * (1 + 0.05 * rng.standard_normal((20, len(pb.space.free))))
+
+    class View:  # the one method of RunView the section uses
+        def draws(self, n):
+            return th[:n]
+
+    frag, figs = energy_section(pb, View(), n_draws=20)
+    assert "Bowen ratio H/LE" in frag and "G/Rn" in frag
+    (fig,) = figs
+    left, right = fig.axes
+    assert [ln.get_label() for ln in left.get_lines()][:4] == [
+        "net radiation Rn (measured)", "sensible heat H", "latent heat LE", "ground heat G"]
+    assert len(left.collections) == 3 and len(right.collections) == 3  # the bands
+    assert "Bowen ratio" in fig._suptitle.get_text()
+    x = right.get_lines()[0].get_xdata()
+    assert x.min() > 0 and x.max() < 24 and np.all(np.diff(x) > 0)
+    base = build_problem(load_case(REPO / "runs" / "caseA.toml"))
+    assert energy_section(base, View()) is None

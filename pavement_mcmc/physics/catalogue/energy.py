@@ -144,6 +144,23 @@ class Partition:
                     "LE_Rn": s["LE"] / s["Rn"], "H_Rn": s["H"] / s["Rn"]}
 
 
+    def summary(self, level: float = 95.0) -> dict[str, tuple[float, float, float]]:
+        """Midday ratios (:meth:`midday`) over the sets: ``{name: (median, lo, hi)}`` with the
+        central ``level`` % interval."""
+        q = [50.0, 50 - level / 2, 50 + level / 2]
+        return {k: tuple(float(x) for x in np.nanpercentile(v, q)) for k, v in self.midday().items()}
+
+    def summary_text(self, level: float = 95.0) -> str:
+        """The midday partition in one line a micrometeorologist reads."""
+        s = self.summary(level)
+        names = {"bowen": "Bowen ratio H/LE", "G_Rn": "G/Rn", "LE_Rn": "LE/Rn", "H_Rn": "H/Rn"}
+        band = self.H.shape[0] > 1
+        parts = [f"{names[k]} {m:.2f}" + (f" [{lo:.2f}, {hi:.2f}]" if band else "")
+                 for k, (m, lo, hi) in s.items()]
+        return ("surface energy balance at midday (R_n above half its maximum"
+                + (f"; {level:g} % intervals" if band else "") + "): " + ", ".join(parts))
+
+
 def energy_partition(model, p: dict[str, np.ndarray]) -> Partition:
     """H, LE and G a model with :class:`EnergyBalance` implies at parameter sets ``p``
     (``{name: (n_sets,)}``): G from the solved surface flux, LE from the law, H the rest."""
