@@ -23,15 +23,23 @@ from pathlib import Path
 import numpy as np
 
 from pavement_mcmc.criticism.fitting import refit
-from pavement_mcmc.data import load_case
+from pavement_mcmc.data import load_case, merge_overrides
 from pavement_mcmc.physics.catalogue.energy import energy_partition
 from pavement_mcmc.posterior import build_problem
 
 REPO = Path(__file__).resolve().parents[1]
+FIXED_LOAM = {"kappa": {"value": 1.2, "vary": False}, "C": {"value": 2.5e6, "vary": False}}
+#: record -> (label, case TOML, extensions instead of the TOML's (None: as is), overrides)
 CASES = {
-    "grass": [("base", "grass.toml"), ("energy_balance", "grass_energy.toml"),
-              ("energy_balance + surface_layer", "grass_energy_layer.toml")],
-    "desert": [("base", "desert.toml"), ("energy_balance", "desert_energy.toml")],
+    "grass": [("base (per-interval h)", "grass.toml", None, {}),
+              ("energy_balance", "grass_energy.toml", ["energy_balance"], {}),
+              ("energy_balance + surface_layer", "grass_energy.toml", None, {}),
+              ("  same, kappa 1.2 and C 2.5e6 fixed", "grass_energy.toml", None,
+               {"parameters": FIXED_LOAM})],
+    "desert": [("base (per-interval h)", "desert.toml", None, {}),
+               ("base + two_layer", "desert.toml", ["two_layer"], {}),
+               ("energy_balance", "desert_energy.toml", ["energy_balance"], {}),
+               ("energy_balance + two_layer", "desert_energy.toml", None, {})],
 }
 DAY_H = 24.0
 
@@ -57,16 +65,17 @@ def forecast_values(problem, fit_problem, values: dict[str, float]) -> dict[str,
     return p
 
 
-def run(toml: Path) -> dict:
+def run(toml: Path, exts: list[str] | None = None, overrides: dict | None = None) -> dict:
     t0 = time.perf_counter()
-    cfg = load_case(toml)
-    pb = build_problem(cfg)
+    cfg = load_case(toml, overrides or None)
+    pb = build_problem(cfg, extensions=exts)
     fit = refit(pb, max_nfev=200)
     v = fit.values()
     out = {"rmse": fit.rmse, "sigma": pb.meas.sigma, "kappa": v["kappa"], "C": v["C"],
            "plate": v.get("plate_G5cm"), "p_eff": fit.p_eff, "seconds": 0.0}
     lo, hi = pb.space.bounds()
-    own = [n for n in pb.space.free if n.startswith(("eb_", "R_surface"))]
+    base_names = {"kappa", "C", "gamma", "plate_G5cm"}
+    own = [n for n in pb.space.free if n not in base_names and pb.space[n].group != "h"]
     out["added"] = {n: v[n] for n in own}
     out["at_bound"] = [n for n in own if min(v[n] - lo[pb.space.free.index(n)],
                                              hi[pb.space.free.index(n)] - v[n])
@@ -75,8 +84,9 @@ def run(toml: Path) -> dict:
         part = energy_partition(pb.model, {k: np.array([x]) for k, x in v.items()})
         out["midday"] = {k: float(x[0]) for k, x in part.midday().items()}
     w0, w1 = cfg.data["window_hours"]
-    fcfg = load_case(toml, {"data": {"window_hours": [w0, w1 + DAY_H]}})
-    fpb = build_problem(fcfg)
+    fcfg = load_case(toml, merge_overrides(overrides or {},
+                                           {"data": {"window_hours": [w0, w1 + DAY_H]}}))
+    fpb = build_problem(fcfg, extensions=exts)
     pred = fpb.model.predict(forecast_values(fpb, pb, v))[0]
     later = fpb.meas.t > pb.meas.t[-1] + 1.0
     out["forecast_rmse"] = float(np.sqrt(np.mean((pred[later] - fpb.meas.T_obs[later]) ** 2)))
@@ -88,12 +98,12 @@ def run(toml: Path) -> dict:
 
 def main(records: list[str]) -> None:
     for rec in records:
-        for label, name in CASES[rec]:
-            r = run(REPO / "runs" / name)
-            print(f"{rec:6s} {label:32s} RMSE {r['rmse']:.3f} C ({r['rmse'] / r['sigma']:.2f} s)"
+        for label, name, exts, overrides in CASES[rec]:
+            r = run(REPO / "runs" / name, exts, overrides)
+            print(f"{rec:6s} {label:36s} RMSE {r['rmse']:.3f} C ({r['rmse'] / r['sigma']:.2f} s)"
                   f"  forecast {r['forecast_rmse']:.3f} C {r['forecast_rmse_sensor']}"
                   f"  kappa {r['kappa']:.3g}  C {r['C'] / 1e6:.3g} MJ  k/C "
-                  f"{r['kappa'] / r['C'] * 1e6:.3g} mm2/s  plate {r['plate']}  "
+                  f"{r['kappa'] / r['C'] * 1e6:.3g} mm2/s  plate {r['plate'] or float('nan'):.2f}  "
                   f"p_eff {r['p_eff']:.1f}  [{r['seconds']:.0f} s]")
             if r["added"]:
                 print("       added: " + ", ".join(f"{k} {x:.3g}" for k, x in r["added"].items())
