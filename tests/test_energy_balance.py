@@ -150,3 +150,16 @@ def test_energy_figure_and_report_section(twin):
     assert x.min() > 0 and x.max() < 24 and np.all(np.diff(x) > 0)
     base = build_problem(load_case(REPO / "runs" / "caseA.toml"))
     assert energy_section(base, View()) is None
+
+
+def test_fit_output_names_the_midday_partition(twin):
+    from types import SimpleNamespace
+
+    from pavement_mcmc.cli.fit import _energy_line
+
+    pb, _ = twin
+    line = _energy_line(SimpleNamespace(problem=pb, table=[{"parameter": "eb_alpha_1", "mean": 0.0},
+                                                           {"parameter": "eb_alpha_2", "mean": 0.0}]))
+    assert line.startswith("surface energy balance at midday") and "LE/Rn 0.00" in line
+    base = build_problem(load_case(REPO / "runs" / "caseA.toml"))
+    assert _energy_line(SimpleNamespace(problem=base, table=[])) is None
