@@ -105,6 +105,7 @@ def test_no_wind_fallback_uses_the_daytime_heating(twin):
     m = Model(meas, pb.model.grid, pb.model.h_basis, ["energy_balance"])
     space = m.parameter_space()
     assert space["eb_h1"].unit == "W m-2 K-1" and "no wind" in space["eb_h1"].description
+    assert "h(t) from energy_balance" in m.describe() and not any(n.startswith("h_") for n in space.free)
     p = {k: np.array([v]) for k, v in space.value_dict().items()}
     h = m.coefficients(p).h[0]
     drive = np.clip(meas.q_net, 0, None) / R_REF
