@@ -32,7 +32,8 @@ def _point(pb, seed=1):
     rng = np.random.default_rng(seed)
     free = pb.space.free
     th = np.repeat(pb.space.initial()[None], 2, 0) * (1 + 0.02 * rng.standard_normal((2, len(free))))
-    on = {"R_surface": 0.1, "et_alpha": 0.4, "d_layer": 0.02, "rad_factor": 0.9, "evap_A": 5.0}
+    on = {"R_surface": 0.1, "et_alpha": 0.4, "d_layer": 0.02, "rad_factor": 0.9, "evap_A": 5.0,
+          "eb_alpha_1": 0.4, "eb_alpha_2": 0.4}
     for j, n in enumerate(free):
         if n in on:
             th[:, j] = on[n] * (1 + 0.1 * rng.standard_normal(2))
@@ -47,6 +48,8 @@ def _point(pb, seed=1):
     ("caseA", ["two_layer", "sensor_bias", "sensor_depth"]),
     ("caseA", ["sensor_depth", "radiation_factor"]),
     ("hidden", ["wind_convection", "evaporation"]),
+    ("hidden", ["energy_balance"]),
+    ("caseA", ["energy_balance", "surface_layer"]),
     ("caseC", ["surface_layer"]),
 ])
 def test_adjoint_gradient_with_extensions(case, exts):

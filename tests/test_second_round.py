@@ -22,7 +22,7 @@ from pavement_mcmc.criticism import diagnose
 from pavement_mcmc.criticism.point import load_point
 from pavement_mcmc.criticism.ranking import FINER_H
 from pavement_mcmc.data import load_case
-from pavement_mcmc.physics import extension_names
+from pavement_mcmc.physics import candidate_names
 from pavement_mcmc.synthetic import SyntheticSpec, write_case
 
 
@@ -62,8 +62,8 @@ def check_rounds(tmp_path, effects: tuple[str, ...], seed: int) -> list[dict]:
     res = rounds(toml)
     target = true_rmse(load_case(toml), list(effects))
     print("ROUNDS", json.dumps({"effects": effects, "seed": seed, "true_rmse": target, "rounds": res}))
-    everything = {FINER_H, *extension_names()}
-    for r in res:  # each round tries exactly the catalogue entries not yet in the model
+    everything = {FINER_H, *candidate_names()}
+    for r in res:  # each round tries exactly the default candidates not yet in the model
         assert set(r["tried"]) == everything - set(r["model"]), r
     assert len(res) == 3, res
     first, second, third = res

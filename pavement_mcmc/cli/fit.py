@@ -66,6 +66,7 @@ def _report(args, out) -> int:
         "",
         *[f.text() for f in out.findings],
         *([f"note: {n}"] if (n := out.problem.model.boundary_note()) else []),
+        *([eb] if (eb := _energy_line(out)) else []),
         f"{'converged' if res.converged else 'NOT converged'}: {res.reason}",
         f"{res.n_steps} steps, {res.n_evals} solves, {res.elapsed:.1f} s; "
         f"acceptance {res.acceptance:.2f}; wrote {out.run_dir}/chain.h5, summary.csv, summary.md",
@@ -74,6 +75,18 @@ def _report(args, out) -> int:
         text += f"\nto continue: pavement-mcmc resume {out.run_dir}"
     emit(args, payload, text)
     return 0 if res.converged else 1
+
+
+def _energy_line(out) -> str | None:
+    """The midday Bowen ratio, G/Rn and LE/Rn at the posterior mean, for an energy balance."""
+    from ..physics.catalogue.energy import EnergyBalance, energy_partition
+
+    pb = out.problem
+    if not any(isinstance(e, EnergyBalance) for e in pb.model.extensions):
+        return None
+    p = {k: np.array([v]) for k, v in pb.space.value_dict().items()}
+    p.update({r["parameter"]: np.array([r["mean"]]) for r in out.table})
+    return energy_partition(pb.model, p).summary_text() + " (posterior mean; bands in the report)"
 
 
 def _interrupted(run_dir) -> int:

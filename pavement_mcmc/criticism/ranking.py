@@ -52,7 +52,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..physics import Extension, extension_names, get_extension
+from ..physics import Extension, candidate_names, get_extension
 from ..physics.hbasis import FINER_H
 from ..physics.materials import check_values, declared_material
 from .candidates import finer_h_spec, fit_extension, h_spec_of, h_start, variant
@@ -190,7 +190,7 @@ def rank_missing_effects(
     values : the run's point estimate by parameter name (posterior mean or MAP); default the
         parameters' values. Used for the residual report and as the start of every refit.
     candidates : extension names (or ``"module:Class"``) to try; default every registered
-        extension not already in the model, plus ``"finer_h"``.
+        extension not already in the model whose ``candidate`` is True, plus ``"finer_h"``.
     threshold : score above which a candidate may be claimed (its data part must also pass
         :data:`~.entries.DATA_THRESHOLD`).
     holdout : break ties between look-alikes with a leave-one-sensor-out check.
@@ -212,7 +212,7 @@ def rank_missing_effects(
     findings = check_values(base.values().get("kappa"), base.values().get("C"), None, declared)
     impossible = _impossible(base, declared)
     present = {e.name for e in problem.model.extensions}
-    names = [n for n in (candidates or [FINER_H, *extension_names()]) if n not in present]
+    names = [n for n in (candidates or [FINER_H, *candidate_names()]) if n not in present]
     entries: list[Entry] = []
     skipped: dict[str, str] = {}
     h_spec = h_spec_of(problem)

@@ -4,9 +4,9 @@ from . import catalogue  # noqa: F401  (registers the shipped extensions)
 from .base import Extension
 from .hbasis import HBasis
 from .model import LITERATURE, Model
-from .registry import extension_names, get_extension, register_extension
+from .registry import candidate_names, extension_names, get_extension, register_extension
 
 __all__ = [
     "Extension", "HBasis", "LITERATURE", "Model",
-    "extension_names", "get_extension", "register_extension",
+    "candidate_names", "extension_names", "get_extension", "register_extension",
 ]

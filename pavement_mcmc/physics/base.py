@@ -53,6 +53,9 @@ class Extension:
     #: that depends on temperature makes the solve nonlinear); the likelihood's gradient is then
     #: taken by central differences of whole solves
     adjoint: bool = True
+    #: False if the criticism's ranking should try this effect only when named (a law that
+    #: replaces several others, e.g. ``energy_balance``, would shadow them as a look-alike)
+    candidate: bool = True
 
     def parameters(self, meas) -> list[Parameter]:
         """The effect's parameters, with values at the *null* (no-effect) point where one exists."""

@@ -320,6 +320,8 @@ class Model:
 
     def describe(self) -> str:
         ext = ", ".join(e.name for e in self.extensions) or "none"
-        top = "measured top" if self.top_measured else f"{len(self.h_basis.names)} h pieces"
+        law = next((e.name for e in self.extensions if e.replaces_h), None)
+        top = ("measured top" if self.top_measured else f"h(t) from {law}" if law
+               else f"{len(self.h_basis.names)} h pieces")
         plates = f", {len(self.plate_names)} flux plate(s)" if self.plates else ""
         return f"conduction + {top}{plates}; extensions: {ext}"

@@ -20,6 +20,11 @@ def extension_names() -> list[str]:
     return _EXTENSIONS.names()
 
 
+def candidate_names() -> list[str]:
+    """Names of the registered extensions the criticism tries by default (``candidate``)."""
+    return [n for n in extension_names() if _REGISTRY[n].candidate]
+
+
 def get_extension(spec) -> Extension:
     """An :class:`Extension` instance from a name, a ``"module:Class"`` path, a class or an instance.
 

@@ -17,6 +17,7 @@ from .chains import (
     plot_logp,
     plot_segments,
 )
+from .energy import plot_energy_balance
 from .fit import plot_fit
 from .physics import plot_fluxes, plot_h, plot_identifiability, plot_sensitivity, plot_urban
 from .posterior import plot_corner
@@ -29,6 +30,7 @@ __all__ = [
     "plot_batch",
     "plot_chains",
     "plot_corner",
+    "plot_energy_balance",
     "plot_fit",
     "plot_fluxes",
     "plot_geweke",

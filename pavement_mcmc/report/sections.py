@@ -38,8 +38,11 @@ def registered_sections() -> list[tuple[str, SectionBuilder]]:
 
 def _register_builtin_sections() -> None:
     from .criticism import TITLE, criticism_section
+    from .energy import TITLE as ENERGY_TITLE
+    from .energy import energy_section
 
     register_section(TITLE, criticism_section, order=50)
+    register_section(ENERGY_TITLE, energy_section, order=40)
 
 
 _register_builtin_sections()

@@ -18,6 +18,8 @@ Priestley-Taylor evapotranspiration (W m-2, zero unless switched on)::
 
     LE^n = f_PT(t^n) max(R_n^n - G^(n-1), 0),    R_n = q_abs - e_rad (T_s + 273.15)^4
 
+(or ``max(R_n^n, 0)``, the net radiation alone as the available energy, with ``et_ground=False``)
+
 with f_PT = alpha s / (s + gamma) given per time level, the net radiation at the extrapolated
 surface temperature and G the conductive flux from the surface node into the ground one step
 earlier (lagged, so the step stays linear; the lag relaxes with ratio f_PT < 1 per step).
@@ -136,7 +138,8 @@ class ColumnRun:
 
 @njit(cache=True, error_model="numpy")
 def _integrate(
-    M, G, beta, T_ref, T_init, dt, T_air, h, q_abs, q_sink, e_rad, T_deep, record_every, S, f_pt, et_on
+    M, G, beta, T_ref, T_init, dt, T_air, h, q_abs, q_sink, e_rad, T_deep, record_every, S, f_pt, et_on,
+    et_ground,
 ):  # pragma: no cover - compiled
     n = M.size
     n_steps = T_air.size - 1
@@ -164,7 +167,7 @@ def _integrate(
         drad = 4.0 * e_rad * tk**3
         sink = q_sink[step]
         if et_on:  # Priestley-Taylor on the available energy, G lagged one step
-            ground = K[0] * (T[0] - T[1])
+            ground = et_ground * K[0] * (T[0] - T[1])
             latent[step] = f_pt[step] * max(q_abs[step] - rad - ground, 0.0)
             sink += latent[step]
         # surface row: radiation linearised about Ts, convection, latent sink
@@ -203,6 +206,7 @@ def march(
     record_every: int = 1,
     source: np.ndarray | None = None,
     pt_factor: np.ndarray | None = None,
+    et_ground: bool = True,
 ) -> ColumnRun:
     """March the column in time with BDF2.
 
@@ -226,6 +230,8 @@ def march(
         (None: none); see :func:`point_source`.
     pt_factor : (n_steps + 1,) Priestley-Taylor factor alpha s / (s + gamma) at each time level
         (None: no evapotranspiration). Must stay below 1 (the lagged closure relaxes with it).
+    et_ground : True: the available energy of the evapotranspiration is R_n - G (G lagged);
+        False: R_n alone.
 
     Returns
     -------
@@ -258,6 +264,7 @@ def march(
         S,
         f_pt,
         et_on,
+        1.0 if et_ground else 0.0,
     )
     return ColumnRun(profiles=profiles, latent=latent)
 

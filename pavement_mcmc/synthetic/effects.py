@@ -50,7 +50,9 @@ evapotranspiration          ``et_alpha`` (-): latent heat leaving the surface,
                             LE = et_alpha s/(s + gamma) max(R_n - G, 0), s the slope of the
                             saturation vapour pressure (Tetens) at T_air, gamma = 0.066 kPa/K,
                             R_n = absorbed SW + LW_down - emitted LW, G the conductive flux into
-                            the ground (lagged one solver step). Default: 1.0. The series is
+                            the ground (lagged one solver step); with the spec's
+                            ``et_available = "net"``: max(R_n, 0), the form of the
+                            inversion's ``energy_balance``. Default: 1.0. The series is
                             recorded in ``Truth.q_et``.
 sensor_lag                  ``lag_sensor_cm`` (cm, nominal depth of one observed sensor),
                             ``lag_minutes`` (min): that sensor reads a first-order lag of its

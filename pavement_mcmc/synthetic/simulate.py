@@ -78,6 +78,9 @@ class SyntheticSpec:
         random stream).
     plate_rel_noise : relative noise of the plates (-).
     plate_abs_noise : absolute noise of the plates, W m-2.
+    et_available : available energy of the ``evapotranspiration`` effect: "net_minus_ground"
+        (R_n - G, Priestley-Taylor's) or "net" (R_n alone, the form of the inversion's
+        ``energy_balance`` entry).
     """
 
     kappa: float = 1.31
@@ -107,6 +110,7 @@ class SyntheticSpec:
     plate_factor: float = 1.0
     plate_rel_noise: float = 0.05
     plate_abs_noise: float = 2.0
+    et_available: str = "net_minus_ground"
 
 
 @dataclass(frozen=True)
@@ -202,6 +206,8 @@ def _check(spec: SyntheticSpec) -> tuple[np.ndarray, float]:
         raise ValueError(f"flux_depths_cm={spec.flux_depths_cm} must lie in [0, column_cm - 5] cm")
     if len(set(flux_columns(spec))) != plates.size:
         raise ValueError(f"flux_depths_cm={spec.flux_depths_cm} holds the same depth twice")
+    if spec.et_available not in ("net_minus_ground", "net"):
+        raise ValueError(f"et_available={spec.et_available!r}; valid: 'net_minus_ground', 'net'")
     if not (spec.plate_factor > 0 and spec.plate_rel_noise >= 0 and spec.plate_abs_noise >= 0):
         raise ValueError("plate_factor must be positive, plate_rel_noise and plate_abs_noise >= 0")
     return depths, bottom
@@ -324,6 +330,7 @@ def simulate(spec: SyntheticSpec) -> tuple[dict[str, np.ndarray], Truth]:
         record_every=substeps,
         source=ground.source,
         pt_factor=pt_factor,
+        et_ground=spec.et_available == "net_minus_ground",
     )
     profiles = run.profiles[n_spin:][keep]
 
