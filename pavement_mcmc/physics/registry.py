@@ -22,7 +22,7 @@ def extension_names() -> list[str]:
 
 def candidate_names() -> list[str]:
     """Names of the registered extensions the criticism tries by default (``candidate``)."""
-    return [n for n in extension_names() if _REGISTRY[n].candidate]
+    return [n for n in extension_names() if _EXTENSIONS.get(n).candidate]
 
 
 def get_extension(spec) -> Extension:
