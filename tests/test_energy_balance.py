@@ -11,7 +11,6 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from pavement_mcmc.criticism.fitting import start_vector
 from pavement_mcmc.data import load_case
 from pavement_mcmc.physics import Model, candidate_names, extension_names
 from pavement_mcmc.physics.catalogue.energy import R_REF, day_index, energy_partition
@@ -58,7 +57,7 @@ def twin(tmp_path_factory):
 
 def test_twin_energy_balance_recovered_at_the_map(twin):
     pb, truth = twin
-    lap = find_map(pb.posterior, start_vector(pb.space, None))
+    lap = find_map(pb.posterior, pb.space.start_vector())
     est = dict(zip(lap.names, lap.theta, strict=True))
     sd = dict(zip(lap.names, lap.sd, strict=True))
     assert pb.space.free == ["kappa", "C", "eb_h0", "eb_h1", "eb_alpha_1", "eb_alpha_2"]
