@@ -116,7 +116,7 @@ def resume(run_dir: str | Path, *, max_seconds: float | None = None, callback=No
         folder.write_config(rec)
     removed = folder.report.exists()  # a report of the old chain would now mislead
     folder.report.unlink(missing_ok=True)
-    return replace(_finish(run_dir, problem, res), report_removed=removed)
+    return replace(_finish(run_dir, problem, res, getattr(smp, "chosen", {})), report_removed=removed)
 
 
 def _unchanged(run_dir: Path, problem, res: RunResult) -> FitOutput:
