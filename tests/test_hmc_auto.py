@@ -45,7 +45,7 @@ def test_many_parameters_at_a_bound_get_sqrt_and_those_far_from_it_log():
     s = _prepared(_bounded([-1.0] * 4 + [4.0] * 4))
     assert list(s.tlog) == [SQRT] * 4 + [LOG] * 4
     assert s.chosen["sqrt_at_zero"] is True and s.chosen["log_positive"] is True
-    assert "4 of 8 parameters bounded at 0" in s.chosen["why"]
+    assert s.chosen["why"].startswith("4 of 8 parameters bounded at 0")
 
 
 def test_a_small_problem_keeps_the_defaults():

@@ -117,13 +117,14 @@ def resolve(options: HMCOptions, *, n_params: int, n_chains: int, n_at0: int,
     chosen = {k: rule[k] for k in auto}
     why = []
     if {"log_positive", "sqrt_at_zero"} & set(auto):
-        why.append(f"{n_near} of {n_at0} parameters bounded at 0 lie within a Laplace sd of it"
-                   f" ({'' if piled else 'not '}at least {PILED_MIN} and "
-                   f"{PILED_SHARE:.0%}): {'log / sqrt' if piled else 'linear'} coordinates")
+        coords = ("sqrt for those, log for the others" if piled else
+                  f"linear coordinates (sqrt and log from {PILED_MIN} and {PILED_SHARE:.0%})")
+        why.append(f"{n_near} of {n_at0} parameters bounded at 0 have their mode within a "
+                   f"Laplace sd of it: {coords}")
     if "metric_windows" in auto:
-        why.append(f"{draws / n_params:.1f} pooled draws per parameter in a metric window "
-                   f"({n_chains} chains x {options.metric_at} steps / {n_params}): "
-                   f"{chosen['metric_windows']} windows")
+        why.append(f"{n_chains} chains x {options.metric_at} steps = {draws / n_params:.0f} "
+                   f"draws per parameter in a metric window: {chosen['metric_windows']} windows "
+                   f"(3 below {DRAWS_PER_DIM})")
     return replace(options, **chosen), {**chosen, "why": "; ".join(why)}
 
 
