@@ -123,3 +123,31 @@ def test_hidden_toml_converges_within_a_small_budget(tmp_path, add):
     out = fit(HIDDEN, tmp_path / "h", add=add, seed=1, max_seconds=1200)
     assert out.result.converged, out.result.reason
     assert out.result.n_evals < 60_000
+
+
+def _plain_grass(tmp_path, csv) -> Path:
+    """runs/grass.toml as a user would write it: no [grid], no [sampler.options]."""
+    text = (ROOT / "runs" / "grass.toml").read_text(encoding="utf-8")
+    text = text[:text.index("[sampler.options]")]
+    a, b = text.index("[grid]"), text.index("[parameters.kappa]")
+    text = text[:a] + text[b:]
+    text = text.replace('"../../shared/data/goettingen_grass/measurements.csv"', json.dumps(str(csv)))
+    path = tmp_path / "grass_plain.toml"
+    path.write_text(text, encoding="utf-8")
+    return path
+
+
+@pytest.mark.slow
+def test_a_plain_field_toml_gets_the_hand_options_of_grass_toml(tmp_path, grass_csv):
+    """On the Göttingen 72-h window the auto grid is the stretched one and hmc's auto options
+    are the ones runs/grass.toml sets by hand (65 of 144 h piled at 0, 147 parameters)."""
+    from pavement_mcmc.data import load_case
+    from pavement_mcmc.posterior import build_problem
+
+    plain = build_problem(load_case(_plain_grass(tmp_path, grass_csv)))
+    hand = build_problem(load_case(ROOT / "runs" / "grass.toml"))
+    np.testing.assert_array_equal(plain.model.grid.x, hand.model.grid.x)
+    s = get_sampler("hmc", plain.posterior, seed=1)
+    s.prepare()
+    assert (s.options.metric_windows, s.options.log_positive, s.options.sqrt_at_zero) == \
+        (3, True, True)

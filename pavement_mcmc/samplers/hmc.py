@@ -43,7 +43,8 @@ to adapt and 60 instead of 70 per unit of the smallest ESS.
 
 Working coordinates (``log_positive``: ``log x`` for parameters bounded at 0 whose mode lies
 well above it; ``sqrt_at_zero``: a shifted ``sqrt x`` for those piled against 0), what they
-do and what they cost on the Göttingen window and on Case C: :mod:`.coords`.
+do and what they cost on the Göttingen window and on Case C: :mod:`.coords`. Unless a case sets
+them, both and ``metric_windows`` are chosen from the problem at the MAP (:mod:`.hmc_options`).
 
 A step costs ``n_leapfrog`` gradient evaluations per chain; :attr:`Block.n_evals` counts them
 (each is one solve and one adjoint sweep, or ``2 d + 1`` solves by central differences for models
