@@ -56,7 +56,8 @@ def _report(args, out) -> int:
                "elapsed_s": res.elapsed, "acceptance": res.acceptance,
                "min_ess": float(np.min(res.ess)) if res.ess.size else None,
                "max_rhat": float(np.max(res.rhat)) if res.rhat.size else None,
-               "table": out.table, "plausibility": [f.text() for f in out.findings]}
+               "table": out.table, "plausibility": [f.text() for f in out.findings],
+               "sampler_chosen": out.chosen}
     from ..runs import format_table
 
     shown = out.table if len(out.table) <= 12 else out.table[:6] + out.table[-3:]
@@ -67,6 +68,7 @@ def _report(args, out) -> int:
         *[f.text() for f in out.findings],
         *([f"note: {n}"] if (n := out.problem.model.boundary_note()) else []),
         *([eb] if (eb := _energy_line(out)) else []),
+        *([_chosen_line(out.chosen)] if out.chosen else []),
         f"{'converged' if res.converged else 'NOT converged'}: {res.reason}",
         f"{res.n_steps} steps, {res.n_evals} solves, {res.elapsed:.1f} s; "
         f"acceptance {res.acceptance:.2f}; wrote {out.run_dir}/chain.h5, summary.csv, summary.md",
@@ -87,6 +89,13 @@ def _energy_line(out) -> str | None:
     p = {k: np.array([v]) for k, v in pb.space.value_dict().items()}
     p.update({r["parameter"]: np.array([r["mean"]]) for r in out.table})
     return energy_partition(pb.model, p).summary_text() + " (posterior mean; bands in the report)"
+
+
+def _chosen_line(chosen: dict) -> str:
+    """The sampler's options chosen from the problem, e.g. ``sampler options chosen: metric_windows
+    = 3, log_positive = True (147 parameters ...)``."""
+    vals = ", ".join(f"{k} = {v}" for k, v in chosen.items() if k != "why")
+    return f"sampler options chosen: {vals}" + (f" ({chosen['why']})" if chosen.get("why") else "")
 
 
 def _interrupted(run_dir) -> int:

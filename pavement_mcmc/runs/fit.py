@@ -39,6 +39,8 @@ class FitOutput:
     ran: bool = True
     #: a report.html of the old chain was removed (the command line writes it anew)
     report_removed: bool = False
+    #: the sampler's options it chose from the problem (``"auto"`` ones) and why; {} if none
+    chosen: dict = field(default_factory=dict)
 
 
 def _sampler_for(problem: Problem, cfg):
@@ -142,7 +144,7 @@ def fit(
             if isinstance(err, StoreWriteFailed):
                 raise resume_hint(err, out) from None
             raise
-    return _finish(out, problem, res)
+    return _finish(out, problem, res, getattr(smp, "chosen", {}))
 
 
 def _failed(run_dir: Path, err: BaseException) -> None:
@@ -166,14 +168,16 @@ def resume_hint(err: StoreWriteFailed, run_dir: Path) -> StoreWriteFailed:
                             n_steps=err.n_steps, bytes_per_step=err.bytes_per_step)
 
 
-def _finish(run_dir: Path, problem: Problem, res: RunResult) -> FitOutput:
+def _finish(run_dir: Path, problem: Problem, res: RunResult, chosen: dict | None = None) -> FitOutput:
     folder = RunFolder(run_dir)
     data = read_run(folder.chain)
     rec = {k: (v.tolist() if isinstance(v, np.ndarray) else v) for k, v in asdict(res).items()}
     rec["param_names"] = data.param_names
+    if chosen:
+        rec["sampler_chosen"] = chosen
     folder.write_result(rec)
     table = statistics_table(problem, keep(data, rec, problem.cfg.sampler))
     write_table(table, run_dir)
     findings = plausibility(problem, table)
     write_plausibility(findings, run_dir, problem.model.boundary_note())
-    return FitOutput(run_dir, res, table, problem, findings)
+    return FitOutput(run_dir, res, table, problem, findings, chosen=dict(chosen or {}))

@@ -123,7 +123,8 @@ def resume(run_dir: str | Path, *, max_seconds: float | None = None, callback=No
             res = _run(problem, smp, store, scfg, callback, max_seconds, min_steps, rule)
         except StoreWriteFailed as err:
             raise resume_hint(err, run_dir) from None
-    return replace(_finish(run_dir, problem, res), report_removed=removed)
+    return replace(_finish(run_dir, problem, res, getattr(smp, "chosen", {})),
+                   report_removed=removed)
 
 
 def _unchanged(run_dir: Path, problem, res: RunResult) -> FitOutput:

@@ -43,7 +43,8 @@ to adapt and 60 instead of 70 per unit of the smallest ESS.
 
 Working coordinates (``log_positive``: ``log x`` for parameters bounded at 0 whose mode lies
 well above it; ``sqrt_at_zero``: a shifted ``sqrt x`` for those piled against 0), what they
-do and what they cost on the Göttingen window and on Case C: :mod:`.coords`.
+do and what they cost on the Göttingen window and on Case C: :mod:`.coords`. Unless a case sets
+them, both and ``metric_windows`` are chosen from the problem at the MAP (:mod:`.hmc_options`).
 
 A step costs ``n_leapfrog`` gradient evaluations per chain; :attr:`Block.n_evals` counts them
 (each is one solve and one adjoint sweep, or ``2 d + 1`` solves by central differences for models
@@ -52,14 +53,13 @@ without an adjoint).
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import numpy as np
 
 from ..posterior.map import find_map
 from ..posterior.marginal import gmrf_of
 from .base import Block, Sampler, start_points
 from .coords import LOG, SQRT, Coords, log_metric
+from .hmc_options import AUTO, LEGACY, HMCOptions, resolve, restored
 from .reflect import reflect_drift
 from .target import MarginalTarget, bounded_laplace_cov, cholesky_of, draws_around
 
@@ -74,52 +74,14 @@ _ARRAYS = ("idx", "hcols", "hpos", "L", "f", "g", "loglik", "win_1", "win_2", "t
            "shift")
 
 
-@dataclass(frozen=True)
-class HMCOptions:
-    """Options of the ``hmc`` sampler.
-
-    target_acceptance : acceptance rate the dual averaging tunes ``eps`` towards.
-    trajectory_length : in whitened units (~pi/2 is a half period of a Gaussian with exactly
-        the metric's covariance).
-    max_leapfrog : most leapfrog steps per trajectory.
-    step_size : initial ``eps`` (default ``0.5 d^-1/4``).
-    adapt_metric : re-estimate the metric from the pooled adaptation draws.
-    metric_at : the adaptation step at which it is first re-estimated.
-    metric_skip : adaptation steps before the first window's draws are pooled.
-    metric_windows : how many times it is re-estimated: window ``k`` ends at adaptation step
-        ``metric_at * 2**k`` and pools the draws since the previous window's end (the first one
-        those after ``metric_skip``).
-    log_positive : sample ``log x`` instead of ``x`` for every parameter bounded below by 0
-        whose mode lies more than one Laplace sd above 0 (h pieces away from 0, a layer's
-        resistance); the draws are stored as ``x``. Off by default (see :mod:`.coords`).
-    sqrt_at_zero : sample ``sqrt(x + c) - sqrt c`` instead of ``x`` for every parameter bounded
-        below by 0 whose mode lies within one Laplace sd of 0 (night-time h against their bound).
-    sqrt_shift : that ``c`` in units of the parameter's exponential scale at the bound (0: ``sqrt x``).
-    """
-
-    target_acceptance: float = 0.8
-    trajectory_length: float = 1.5
-    max_leapfrog: int = 64
-    step_size: float | None = None
-    adapt_metric: bool = True
-    metric_at: int = 50
-    metric_skip: int = 10
-    metric_windows: int = 2
-    log_positive: bool = False
-    sqrt_at_zero: bool = False
-    sqrt_shift: float = 0.25
-
-    def __post_init__(self):
-        if not self.sqrt_shift >= 0.0:
-            raise ValueError(f"hmc option sqrt_shift must be >= 0, got {self.sqrt_shift}")
-
-
 class HMCSampler(Sampler):
     """Reflective HMC with a Laplace metric (see the module docstring)."""
 
     name = "hmc"
     adaptive = True
     Options = HMCOptions
+    #: the ``"auto"`` options as :func:`.hmc_options.resolve` decided them, and why
+    chosen: dict = {}
 
     @staticmethod
     def default_chains(ndim: int) -> int:
@@ -131,9 +93,10 @@ class HMCSampler(Sampler):
     def adapt_length(self) -> int:
         """The last metric window's end and 50 steps for the step size to settle after it."""
         o = self.options
-        if not o.adapt_metric or o.metric_windows < 1:
+        windows = LEGACY["metric_windows"] if o.metric_windows == AUTO else o.metric_windows
+        if not o.adapt_metric or windows < 1:  # ("auto": not yet resolved by prepare)
             return 150
-        return max(150, o.metric_at * 2 ** (o.metric_windows - 1) + 50)
+        return max(150, o.metric_at * 2 ** (windows - 1) + 50)
 
     # -- preparation -------------------------------------------------------------------------
     def prepare(self, theta0=None, laplace=None) -> None:
@@ -160,6 +123,8 @@ class HMCSampler(Sampler):
             cov = self._bounded(mode, np.asarray(lap.cov, float)[np.ix_(self.idx, self.idx)])
         i = self.idx
         at0, above = self.lo[i] == 0.0, mode[i] > np.sqrt(np.diag(cov))
+        self.options, self.chosen = resolve(self.options, n_params=i.size, n_chains=self.n_chains,
+                                            n_at0=int(at0.sum()), n_near=int((at0 & ~above).sum()))
         self.tlog = np.where(self.options.log_positive & at0 & above, LOG,  # coordinate kinds
                              np.where(self.options.sqrt_at_zero & at0 & ~above, SQRT, 0))
         self.shift = np.where(self.tlog == SQRT, self.options.sqrt_shift * np.sqrt(np.diag(cov)), 0.0)
@@ -391,11 +356,16 @@ class HMCSampler(Sampler):
     def _extra_state(self):
         extra = {k: getattr(self, k) for k in _SCALARS}
         extra.update(marginal=self.marginal, gi=self.gi)
+        if any(self.chosen.get(k, v) != v for k, v in LEGACY.items()):  # else: as before the rule
+            extra["chosen"] = self.chosen
         return extra, {k: np.asarray(getattr(self, k), float) for k in _ARRAYS}
 
     def _load_extra_state(self, extra, arrays):
         self.marginal = bool(extra["marginal"])
         self.gi = None if extra["gi"] is None else int(extra["gi"])
+        auto = self.options.auto_names()
+        self.options = restored(self.options, extra.get("chosen"))
+        self.chosen = {k: getattr(self.options, k) for k in auto}
         for k in _SCALARS:
             setattr(self, k, extra[k])
         self.k_adapt, self.k_da, self.n_leapfrog = int(self.k_adapt), int(self.k_da), int(self.n_leapfrog)
