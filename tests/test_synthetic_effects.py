@@ -55,6 +55,7 @@ def test_effect_groups():
         "sensor_lag",
         "shading",
         "buried_source",
+        "sensor_sun",
     }
     assert len(ALL_EFFECTS) == len(set(ALL_EFFECTS))
 

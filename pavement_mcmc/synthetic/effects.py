@@ -66,6 +66,10 @@ buried_source               ``source_flux`` (W m-2, > 0 heats), ``source_depth``
                             third observed sensor (between the last two sensors, bottom
                             included, if there are fewer); 15 W m-2 is mostly absorbed by
                             kappa in a fit of the 0-5 cm geometry.
+sensor_sun                  ``sun_sensor_cm`` (cm, nominal depth of one observed sensor),
+                            ``sun_gain`` (K per kW m-2): that sensor, in the sun, reads warm
+                            by sun_gain x the absorbed short-wave. Default: the shallowest
+                            observed sensor, 1.5 (about +1.2 K at noon in summer).
 ==========================  ===============================================================
 
 Default strengths of the off-catalogue effects were chosen with MAP refits of the base model
@@ -95,7 +99,7 @@ EFFECTS = (
 NEW_CATALOGUE_EFFECTS = ("surface_layer", "evapotranspiration")
 """Effects with planned catalogue entries (the simulator uses different physics)."""
 
-OFF_CATALOGUE_EFFECTS = ("sensor_lag", "shading", "buried_source")
+OFF_CATALOGUE_EFFECTS = ("sensor_lag", "shading", "buried_source", "sensor_sun")
 """Effects no catalogue entry models: a diagnosis should name none of its candidates."""
 
 ALL_EFFECTS = EFFECTS + NEW_CATALOGUE_EFFECTS + OFF_CATALOGUE_EFFECTS
@@ -163,6 +167,8 @@ def default_effect(
         return {"et_alpha": 1.0}
     if name == "sensor_lag":
         return {"lag_sensor_cm": float(depths_cm[len(depths_cm) // 2]), "lag_minutes": 60.0}
+    if name == "sensor_sun":
+        return {"sun_sensor_cm": float(depths_cm[0]), "sun_gain": 1.5}
     if name == "shading":
         return {"shade_fraction": 0.6, "shade_start": 13.5, "shade_end": 16.5}
     # buried_source
@@ -216,6 +222,9 @@ def resolve_effects(
                 f"effect 'sensor_lag': lag_sensor_cm={params['lag_sensor_cm']:g} is not an observed "
                 f"sensor; valid: {', '.join(f'{d:g}' for d in depths_cm)}"
             )
+        if name == "sensor_sun" and not any(abs(params["sun_sensor_cm"] - d) < 1e-9 for d in depths_cm):
+            raise ValueError(f"effect 'sensor_sun': sun_sensor_cm={params['sun_sensor_cm']:g} is "
+                             f"not an observed sensor; valid: {', '.join(f'{d:g}' for d in depths_cm)}")
         if name == "buried_source" and not 0 < params["source_depth"] < bottom_cm / 100.0:
             raise ValueError(
                 f"effect 'buried_source': source_depth={params['source_depth']:g} m must lie "
