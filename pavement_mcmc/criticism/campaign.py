@@ -28,7 +28,7 @@ import numpy as np
 from ..data import load_case
 from ..physics.hbasis import FINER_H
 from ..posterior import build_problem
-from ..synthetic.corpus import write_twin
+from ..synthetic.corpus import forecast_twins, write_twin
 from .fitting import refit
 from .forecast import default_origins, future_values, held_out, split_rows, training_problem
 from .ranking import rank_missing_effects
@@ -108,9 +108,34 @@ def diagnose_twin(twin, directory: str | Path, *, forecast: bool = False,
     return rec
 
 
-def diagnose_twins(twins, directory: str | Path) -> list[dict]:
+def diagnose_twins(twins, directory: str | Path, *, forecast: bool = False) -> list[dict]:
     """:func:`diagnose_twin` of every twin, in order."""
-    return [diagnose_twin(t, directory) for t in twins]
+    return [diagnose_twin(t, directory, forecast=forecast) for t in twins]
+
+
+#: the catalogue effects and the off-catalogue ones of the forecast rule's campaign
+FORECAST_CATALOGUE = ("wind_convection", "evaporation", "evapotranspiration", "radiation_factor",
+                      "conductivity_temperature", "two_layer", "sensor_bias", "sensor_depth",
+                      "surface_layer")
+FORECAST_OFF = ("sensor_sun", "sensor_lag", "shading", "buried_source")
+
+
+def forecast_campaign_twins(n_clean: int = 40, n_effect: int = 10, n_off: int = 3, *,
+                            hours: float = 40.0, input_sigma: bool = True) -> list:
+    """The forecast rule's calibration twins (:func:`~pavement_mcmc.synthetic.corpus.forecast_twins`):
+    ``n_clean`` clean, ``n_effect`` of each :data:`FORECAST_CATALOGUE` effect, ``n_off`` of each
+    :data:`FORECAST_OFF` effect, interleaved (one round of every kind per seed) so that a run cut
+    short still covers every kind."""
+    kw = {"hours": hours, "input_sigma": input_sigma}
+    out = []
+    for k in range(max(n_clean, n_effect, n_off)):
+        if k < n_clean:
+            out += forecast_twins((), (600 + k,), **kw)
+        if k < n_effect:
+            out += forecast_twins(FORECAST_CATALOGUE, (700 + k,), **kw)
+        if k < n_off:
+            out += forecast_twins(FORECAST_OFF, (800 + k,), **kw)
+    return out
 
 
 def rates(records: list[dict]) -> dict:
