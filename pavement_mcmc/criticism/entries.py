@@ -33,7 +33,8 @@ alone, and a candidate is claimable when its forecast gain :math:`F_c`
 (:func:`~.forecast.forecast_gain`) passes :data:`FORECAST_THRESHOLD` and it does not fit worse
 (:math:`S_c \ge -` :data:`THRESHOLD`: the in-sample fit, charged for the parameters it adds and
 credited for those it removes, is no worse); :math:`D_c` stays a supporting figure. "Partly"
-then also needs the forecast to remove :data:`PARTIAL` of the base forecast's excess error.
+then needs the forecast to remove :data:`PARTIAL` of the base forecast's excess error (and the
+in-sample misfit not to rise).
 
 One exception (the real-data issue): when the base fit is **physically impossible** (kappa or C
 outside every ground material, :func:`~pavement_mcmc.physics.materials.check_values`), a
@@ -243,10 +244,14 @@ class Entry:
 
     @property
     def partial(self) -> bool:
-        """It does not explain the misfit but removes at least :data:`PARTIAL` of its excess
-        (and, under the forecast rule, of the base forecast's excess error too)."""
-        fc = self.forecast_share is None or self.forecast_share >= PARTIAL
-        return not self.explains and self.excess_share >= PARTIAL and fc
+        """It does not explain the misfit but removes at least :data:`PARTIAL` of its excess;
+        under the forecast rule, of the base forecast's excess error (a law that replaces free
+        parameters may remove little in sample), without raising the in-sample misfit."""
+        if self.explains:
+            return False
+        if self.forecast_share is not None:
+            return self.forecast_share >= PARTIAL and self.excess_share >= 0.0
+        return self.excess_share >= PARTIAL
 
     def to_dict(self) -> dict:
         d = {k: v for k, v in self.__dict__.items() if k not in ("fit", "forecast")}

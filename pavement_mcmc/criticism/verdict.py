@@ -72,9 +72,12 @@ def forecast_sentence(best, entries, fbase) -> str:
               key=lambda e: e.forecast_gain, default=None)
     if top is None:
         return ""
-    why = ("" if top.forecast_gain <= FORECAST_THRESHOLD else
-           f", but {'fits worse in sample' if top.score < -top.threshold else 'is not claimable'}"
-           f"{' (' + ', '.join(top.at_bound) + ' at a bound)' if top.at_bound else ''}")
+    why = ""
+    if top.forecast_gain > FORECAST_THRESHOLD:
+        why = (", but it leaves too much of the forecast error unexplained" if top.detected else
+               ", but it fits worse in sample" if top.score < -top.threshold else
+               f", but {', '.join(top.at_bound)} sits at a bound" if top.at_bound else
+               ", but its offsets line up with depth" if top.profile else "")
     return (f" No candidate forecasts {period} better by the margin F > {FORECAST_THRESHOLD:g} "
             f"(base forecast RMSE {fbase.rmse_sigma:.2f} σ; best {top.name}: "
             f"{top.forecast_rmse_sigma:.2f} σ, F = {top.forecast_gain:.0f}{why}).")
