@@ -57,3 +57,50 @@ def test_forecast_reads_the_forcing_never_a_held_out_temperature(tmp_path):
     warm = type(pb.model)(replace(meas, q_net=q), pb.model.grid, pb.model.h_basis)
     assert np.all(warm.predict(p)[0][n0 + 2:, 0] > pred_a[n0 + 2:, 0] + 0.1)
     np.testing.assert_allclose(fc.predicted, pred_a[n0 + 1:], atol=1e-12)
+
+
+def _rank(tmp_path, effect, candidates, seed=501):
+    """The forecast rule's ranking of a 32 h twin (24 h fitted, 8 h held out)."""
+    from pavement_mcmc.criticism.fitting import refit
+    from pavement_mcmc.criticism.ranking import rank_missing_effects
+
+    pb = _problem(tmp_path, effect, seed, hours=32.0)
+    base = refit(pb)
+    return rank_missing_effects(pb, base.values(), candidates, holdout=False, forecast=True)
+
+
+@pytest.mark.parametrize("effect", ["wind_convection"])
+def test_a_law_that_forecasts_is_claimed(tmp_path, effect):
+    """A wind-driven h fitted in Case C form (one h per interval): in sample the free h(t)
+    absorbs it (measured on seed 501: D = -112, the in-sample rule claims nothing), but only
+    the law forecasts the held-out 8 h (RMSE 1.46 -> 1.14 sigma, F = 56)."""
+    rk = _rank(tmp_path, effect, [effect, "two_layer"])
+    assert rk.best is not None and rk.best.name == effect, rk.verdict
+    assert rk.best.forecast_rmse_sigma < rk.forecast.rmse_sigma
+    assert "forecasts the held-out 8 h" in rk.verdict
+
+
+SURFACE = ("wind_convection", "evaporation", "evapotranspiration", "radiation_factor",
+           "conductivity_temperature")
+
+
+@pytest.mark.slow
+def test_forecast_rule_campaign(tmp_path):
+    """Issue 22's calibration of the forecast rule (``benchmarks/forecast_campaign.py`` runs the
+    same twins resumably): 40 clean twins, 10 of each catalogue effect at 1x, 12 off-catalogue
+    (sun-warmed surface sensor, sensor lag, shading, buried source), Case C form, loose priors,
+    input noise on."""
+    from pavement_mcmc.criticism.campaign import diagnose_twins, forecast_campaign_twins, rates
+
+    records = diagnose_twins(forecast_campaign_twins(), tmp_path, forecast=True)
+    got = rates(records)
+    fa, n_clean = got["false_alarm"]
+    assert n_clean >= 40 and fa <= n_clean / 20, got["false_alarm_twins"]
+    for eff, cell in got["true_first"].items():
+        assert cell["first"] >= 0.7 * cell["n"], (eff, cell)
+    surf = [got["true_first"][e] for e in SURFACE]
+    assert sum(c["first"] for c in surf) >= 0.8 * sum(c["n"] for c in surf)
+    off = [r for r in records if r["category"] == "off_catalogue"]
+    assert len(off) >= 10
+    assert sum(r["claimed"] is None for r in off) >= 0.9 * len(off), got["off_confident_claims"]
+    assert float(np.median(got["forecast_ratio"])) <= 1.10, got["forecast_ratio"]
