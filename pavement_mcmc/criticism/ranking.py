@@ -162,7 +162,9 @@ def _none_of_these(best: Entry | None, entries: list[Entry], rep, base: Fit):
         why.append(f"the best candidate, {best.name}, leaves RMSE {best.rmse_sigma:.2f} σ "
                    f"and lag-1 {best.rho:.2f}")
     elif best is None and not noise_like(rep):
-        why.append("no candidate's data part passes the threshold")
+        fc = any(e.forecast_gain is not None for e in entries)
+        why.append("no candidate forecasts the held-out period better by the margin" if fc
+                   else "no candidate's data part passes the threshold")
     if not why:
         return None
     if coherent:

@@ -132,7 +132,9 @@ def _verdict_main(best, entries, lookalikes, rep, base, none) -> str:
         return (
             f"No missing effect detected: RMSE {rep.rmse:.3f} °C = {rep.rmse_sigma:.2f} σ is "
             f"within the misfit floor and the residuals show no significant structure "
-            f"(no candidate's data part passes {DATA_THRESHOLD:g})."
+            + (f"(no candidate forecasts better by the margin F > {FORECAST_THRESHOLD:g})."
+               if any(e.forecast_gain is not None for e in entries)
+               else f"(no candidate's data part passes {DATA_THRESHOLD:g}).")
         )
     best_data = max((e.data_score for e in entries), default=float("nan"))
     return (
