@@ -55,6 +55,7 @@ def test_effect_groups():
         "sensor_lag",
         "shading",
         "buried_source",
+        "sensor_sun",
     }
     assert len(ALL_EFFECTS) == len(set(ALL_EFFECTS))
 
@@ -71,7 +72,8 @@ def test_new_effect_is_strong_enough_and_keeps_weather_and_noise(name, base, run
         np.testing.assert_array_equal(columns[key], columns0[key])
     noise0 = _recorded(columns0) - truth0.T_clean[:, :-1]
     noise = _recorded(columns) - truth.T_clean[:, :-1]
-    untouched = [k for k, c in enumerate(OBSERVED) if not (name == "sensor_lag" and c == "T_2cm")]
+    read = {"sensor_lag": "T_2cm", "sensor_sun": "T_0cm"}  # sensors that do not read T_clean
+    untouched = [k for k, c in enumerate(OBSERVED) if read.get(name) != c]
     np.testing.assert_allclose(noise[:, untouched], noise0[:, untouched], atol=1e-12)
     assert list(truth.effects) == [name]
     assert truth.effects[name] == pytest.approx(default_effect(name, BASE.kappa, BASE.C))

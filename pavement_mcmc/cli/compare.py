@@ -7,7 +7,8 @@ from pathlib import Path
 
 from .common import add_json_flag, emit
 
-HELP = "compare runs: RMSE per sensor, max |residual|, lag-1, chi2/dof and a hold-out score"
+HELP = ("compare runs: RMSE per sensor, max |residual|, lag-1, chi2/dof, a hold-out score and "
+        "the forecast of a held-out period, ranked by it")
 
 
 def add_parser(sub) -> None:
@@ -18,7 +19,9 @@ def add_parser(sub) -> None:
         "The out-of-sample score is leave-one-sensor-out: each sensor is held out in turn, the "
         "model refitted by MAP on the others and the held-out series predicted; the mean Gaussian "
         "log predictive density per held-out datum is reported (higher is better). Holding out "
-        "whole series keeps their time correlation out of the fit.",
+        "whole series keeps their time correlation out of the fit. The forecast refits the start of "
+        "each window and predicts the rest (the last 24 h of windows of 48 h or more, else the "
+        "last quarter) from the forcing alone; runs are ranked by its log predictive density.",
         formatter_class=argparse.RawDescriptionHelpFormatter,
         epilog="example: pavement-mcmc compare runs/hidden runs/hidden_2l",
     )
@@ -29,6 +32,7 @@ def add_parser(sub) -> None:
         "extension (MAP only); the first is the reference",
     )
     p.add_argument("--no-holdout", action="store_true", help="skip the leave-one-sensor-out score")
+    p.add_argument("--no-forecast", action="store_true", help="skip the forecast and its ranking")
     p.add_argument("--figure", help="residuals side by side (default: <first run>/compare.png)")
     add_json_flag(p)
     p.set_defaults(func=run)
@@ -51,7 +55,7 @@ def run(args) -> int:
 
             g = rmse_vs_map(label, analyse_point(problem, values).rmse, refit(problem, values).rmse)
             guards += [g] if g is not None else []
-    led = ledger(runs, holdout=not args.no_holdout)
+    led = ledger(runs, holdout=not args.no_holdout, forecast=not args.no_forecast)
     first = Path(args.runs[0])
     fig_path = (
         Path(args.figure)

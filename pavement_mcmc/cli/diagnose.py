@@ -9,9 +9,10 @@ from __future__ import annotations
 import argparse
 import json
 import sys
+import textwrap
 from pathlib import Path
 
-from ..criticism.entries import DATA_THRESHOLD
+from ..criticism.entries import DATA_THRESHOLD, FORECAST_THRESHOLD
 from ..criticism.ranking import finer_h_spec
 from ..physics.hbasis import FINER_H
 from .common import add_json_flag, emit
@@ -26,7 +27,9 @@ def add_parser(sub) -> None:
         description=HELP + ". Per sensor: RMSE and bias against sigma, lag-1 autocorrelation and "
         "Ljung-Box test, 24 h amplitude and phase errors, correlations with forcing; then every "
         "catalogue extension not in the model (and a finer h(t)) is added in a quick MAP refit and "
-        "scored by its penalised misfit drop (autocorrelation-aware BIC).",
+        "scored by its penalised misfit drop (autocorrelation-aware BIC) and by its forecast: the "
+        "start of the window is refitted and the rest predicted from the forcing alone; a "
+        "candidate is claimed when it forecasts better by a calibrated margin.",
         formatter_class=argparse.RawDescriptionHelpFormatter,
         epilog="examples:\n  pavement-mcmc diagnose runs/hidden\n"
         "  pavement-mcmc diagnose runs/hidden.toml --json",
@@ -35,6 +38,8 @@ def add_parser(sub) -> None:
     p.add_argument("--no-rank", action="store_true", help="residual statistics only")
     p.add_argument("--only", nargs="+", metavar="EXT", help="candidates to try (default: all)")
     p.add_argument("--median", action="store_true", help="posterior median instead of mean")
+    p.add_argument("--no-forecast", action="store_true",
+                   help="claim by the in-sample score alone (no forecast of a held-out period)")
     p.add_argument("--force", action="store_true",
                    help="diagnose an unfinished or failed run anyway (its chain is not a posterior)")
     p.add_argument(
@@ -46,13 +51,73 @@ def add_parser(sub) -> None:
     p.set_defaults(func=run)
 
 
-def _text(dx, how: str, label: str) -> str:
+def _forecast_line(fc) -> str:
+    return (f"forecast of the held-out {fc.horizon:g} h (fit to the first {fc.origins[-1]:g} h, "
+            f"then the forcing alone; future h(t): {fc.rule} rule): RMSE {fc.rmse:.3f} °C = "
+            f"{fc.rmse_sigma:.2f} σ, log predictive density {fc.lpd:+.2f} per datum")
+
+
+def _summary(dx, how: str, label: str) -> list[str]:
+    """The lines a user reads first: the model, the fit, the forecast, the verdict, what next."""
     rep = dx.residuals
     lines = [
         f"{label}: {dx.problem.model.describe()}; point estimate: {how}",
-        f"overall RMSE {rep.rmse:.3f} °C = {rep.rmse_sigma:.2f} σ (σ = {rep.sigma:g} °C; the "
+        f"fit: RMSE {rep.rmse:.3f} °C = {rep.rmse_sigma:.2f} σ (σ = {rep.sigma:g} °C; the "
         f"misfit floor of a correct model is about 1.1-1.2 σ), lag-1 {rep.rho:.2f}",
+    ]
+    if dx.forecast is not None:
+        lines.append(_forecast_line(dx.forecast))
+    rk = dx.ranking
+    if rk is not None:
+        lines += ["", *textwrap.wrap(rk.verdict, 100), *next_step(rk)]
+    return lines
+
+
+def _candidates(rk) -> list[str]:
+    fc = rk.forecast is not None
+    rule = (f"* claimable: its forecast gain F > {FORECAST_THRESHOLD:g} and no worse in-sample "
+            f"fit (S >= -{rk.threshold:g})" if fc else
+            f"* claimable: S > {rk.threshold:g} and D > {DATA_THRESHOLD:g}")
+    lines = [
         "",
+        "Candidates (S = penalised misfit drop, autocorrelation-aware BIC; D = its data part, "
+        "the misfit drop alone, never credited for fewer parameters; "
+        + ("F = forecast gain, 2 Δ(log predictive density) of the held-out period over its "
+           "effective count; " if fc else "")
+        + f"{rule}, or it brings an impossible fit back into range; "
+        "~ prior-driven: S passes through Δprior or fewer parameters, not claimed; "
+        "! a parameter of its own at a bound, or per-sensor offsets that line up with depth, "
+        "not claimed):",
+        f"  {'#':<3}{'candidate':<26}{'S':>8}{'D':>8}{'Δχ²':>9}{'Δprior':>8}{'+params':>8}"
+        f"{'RMSE':>7}{'/σ':>6}" + (f"{'F':>8}{'fc /σ':>7}" if fc else ""),
+    ]
+    for i, e in enumerate(rk.entries, 1):
+        mark = "*" if e.detected else "!" if e.at_bound or e.profile else "~" if e.prior_driven else " "
+        lines.append(
+            f"{mark} {i:<3}{e.name:<26}{e.score:8.1f}{e.data_score:8.1f}{e.delta_chi2:9.1f}"
+            f"{e.delta_prior:8.1f}{e.added_params:8.2f}{e.rmse:7.3f}{e.rmse_sigma:6.2f}"
+            + (f"{e.forecast_gain:8.1f}{e.forecast_rmse_sigma:7.2f}" if fc else "")
+            + (f"  LOSO lpd {e.loso_lpd:+.3f}" if e.loso_lpd is not None else "")
+            + (f"  at bound: {', '.join(e.at_bound)}" if e.at_bound else "")
+            + ("  offsets: one coherent depth profile" if e.profile else "")
+        )
+        if i <= 3 or e.detected:
+            for ev in e.evidence:
+                lines.append(f"        - {ev}")
+            if e.values:
+                lines.append("        fitted: " + ", ".join(f"{k}={v:.4g}" for k, v in e.values.items()))
+    for k, why in rk.skipped.items():
+        lines.append(f"  (not tried: {k}: {why})")
+    return lines
+
+
+def _text(dx, how: str, label: str) -> str:
+    """The verdict first (:func:`_summary`), then the tables it rests on."""
+    rep = dx.residuals
+    lines = [
+        *_summary(dx, how, label),
+        "",
+        "Details",
         f"{'sensor':<8}{'RMSE':>7}{'/σ':>6}{'mean':>8}{'lag-1':>7}{'LB p':>9}"
         f"{'amp ratio':>10}{'phase h':>9}  strongest correlation",
     ]
@@ -70,37 +135,9 @@ def _text(dx, how: str, label: str) -> str:
     rk = dx.ranking
     if rk is None:
         return "\n".join(lines)
-    lines += [
-        "",
-        f"Candidates (score S = penalised misfit drop, autocorrelation-aware BIC; D = its data part, "
-        f"the misfit drop alone, never credited for fewer parameters; * claimable: S > "
-        f"{rk.threshold:g} and D > {DATA_THRESHOLD:g}, or it brings an impossible fit back into range; "
-        "~ prior-driven: S passes through Δprior or fewer parameters, not claimed; "
-        "! a parameter of its own at a bound, or per-sensor offsets that line up with depth, "
-        "not claimed):",
-        f"  {'#':<3}{'candidate':<26}{'S':>8}{'D':>8}{'Δχ²':>9}{'Δprior':>8}{'+params':>8}"
-        f"{'RMSE':>7}{'/σ':>6}  {'':<4}",
-    ]
-    for i, e in enumerate(rk.entries, 1):
-        mark = "*" if e.detected else "!" if e.at_bound or e.profile else "~" if e.prior_driven else " "
-        lines.append(
-            f"{mark} {i:<3}{e.name:<26}{e.score:8.1f}{e.data_score:8.1f}{e.delta_chi2:9.1f}"
-            f"{e.delta_prior:8.1f}{e.added_params:8.2f}{e.rmse:7.3f}{e.rmse_sigma:6.2f}"
-            + (f"  LOSO lpd {e.loso_lpd:+.3f}" if e.loso_lpd is not None else "")
-            + (f"  at bound: {', '.join(e.at_bound)}" if e.at_bound else "")
-            + ("  offsets: one coherent depth profile" if e.profile else "")
-        )
-        if i <= 3 or e.detected:
-            for ev in e.evidence:
-                lines.append(f"        - {ev}")
-            if e.values:
-                lines.append("        fitted: " + ", ".join(f"{k}={v:.4g}" for k, v in e.values.items()))
-    for k, why in rk.skipped.items():
-        lines.append(f"  (not tried: {k}: {why})")
-    lines += ["", rk.verdict]
+    lines += _candidates(rk)
     if rk.unexplained is not None:
         lines += ["", *rk.unexplained.text().splitlines()[1:]]
-    lines += next_step(rk)
     return "\n".join(lines)
 
 
@@ -133,6 +170,14 @@ def next_step(rk) -> list[str]:
     return lines
 
 
+def _best_forecast(rk):
+    """The claimed candidate, else the one with the largest forecast gain (None without any)."""
+    if rk.best is not None and rk.best.forecast is not None:
+        return rk.best
+    return max((e for e in rk.entries if e.forecast is not None), key=lambda e: e.forecast_gain,
+               default=None)
+
+
 def run_guards(path: str) -> list:
     """:func:`~pavement_mcmc.criticism.guards.check_run` of a run directory ([] for a TOML)."""
     from ..criticism.guards import check_run
@@ -153,14 +198,20 @@ def run(args) -> int:
             print(f"error: {g.text}; refusing to diagnose it (--force to do it anyway)", file=sys.stderr)
         return 2
     problem, values, how, label = load_point(args.run, "median" if args.median else "mean")
-    dx = diagnose(problem, values, rank=not args.no_rank, candidates=args.only)
+    dx = diagnose(problem, values, rank=not args.no_rank, candidates=args.only,
+                  forecast=not args.no_forecast)
     if Path(args.run).is_dir() and dx.ranking is not None:
         g = map_vs_sampled(values, sampled_sd(args.run), dx.ranking.base.values())
         guards += [g] if g is not None else []
     figdir = Path(args.figures) if args.figures else (Path(args.run) if Path(args.run).is_dir() else None)
     figs = []
     if figdir is not None:
-        from ..plotting.criticism import plot_ranking, plot_residual_correlations, plot_residual_map
+        from ..plotting.criticism import (
+            plot_forecast,
+            plot_ranking,
+            plot_residual_correlations,
+            plot_residual_map,
+        )
 
         figdir.mkdir(parents=True, exist_ok=True)
         out = {
@@ -169,6 +220,11 @@ def run(args) -> int:
         }
         if dx.ranking is not None:
             out["missing_effects.png"] = plot_ranking(dx.ranking)
+        if dx.forecast is not None:
+            best = None if dx.ranking is None else _best_forecast(dx.ranking)
+            out["forecast.png"] = plot_forecast(
+                dx.forecast, None if best is None else best.forecast,
+                labels=("base", "" if best is None else best.name))
         for name, fig in out.items():
             fig.savefig(figdir / name, dpi=110)
             figs.append(str(figdir / name))

@@ -9,7 +9,10 @@ diagnosed from its case's MAP fit; :func:`diagnose_twins` returns one record per
 - per catalogue effect, how often it is ranked first (claimed) and its refit RMSE over the RMSE
   of the true model at the true parameters;
 - the "none of these" rate on off-catalogue twins, and how often a catalogue entry is claimed
-  there with confidence (a partial claim counts as confident).
+  there with confidence (a partial claim counts as confident);
+- with ``forecast`` on (the forecast rule of :mod:`.entries`): each twin's forecast gains and,
+  on clean twins, the base model's forecast RMSE over that of the true parameters under the
+  same future rule (:func:`truth_forecast_rmse`: the score measures the model, not the rule).
 
 A later batch engine may map :func:`diagnose_twin` over the twins in parallel.
 """
@@ -25,13 +28,14 @@ import numpy as np
 from ..data import load_case
 from ..physics.hbasis import FINER_H
 from ..posterior import build_problem
-from ..synthetic.corpus import write_twin
+from ..synthetic.corpus import forecast_twins, write_twin
 from .fitting import refit
+from .forecast import default_origins, future_values, held_out, split_rows, training_problem
 from .ranking import rank_missing_effects
 
 
-def true_rmse(cfg, effects: list[str]) -> float:
-    """RMSE of the true model at the true parameters (true h per interval) on the twin's data."""
+def _true_values(cfg, effects: list[str]):
+    """The true model's problem (true h per interval) and its true parameter values."""
     truth = json.loads(Path(cfg.truth_path).read_text())
     pb = build_problem(cfg, extensions=list(effects), h_spec={"kind": "per_interval", "smooth": False})
     vals = {k: float(v[0]) for k, v in pb.space.values().items()}
@@ -41,18 +45,38 @@ def true_rmse(cfg, effects: list[str]) -> float:
         vals.update(zip(pb.model.h_basis.names, 0.5 * (h[1:] + h[:-1]), strict=True))
     for e in effects:
         vals.update({k: v for k, v in truth["effects"][e].items() if k in vals})
+    return pb, vals
+
+
+def true_rmse(cfg, effects: list[str]) -> float:
+    """RMSE of the true model at the true parameters (true h per interval) on the twin's data."""
+    pb, vals = _true_values(cfg, effects)
     p = {k: np.array([v]) for k, v in vals.items()}
     r = pb.model.predict(p)[0, 1:] - pb.meas.T_obs[1:]
     return float(np.sqrt(np.mean(r**2)))
 
 
-def diagnose_twin(twin, directory: str | Path) -> dict:
-    """Simulate ``twin`` into ``directory``, fit its case by MAP, rank the candidates; one record."""
+def truth_forecast_rmse(cfg, effects: list[str], rule: str = "diurnal") -> float:
+    """Forecast RMSE with the true parameters over the fitted part and the future rule after it
+    (:mod:`.forecast`), true model, default origin: what a perfect fit would forecast."""
+    pb, vals = _true_values(cfg, effects)
+    (origin,), _ = default_origins(pb.meas.t)
+    n_train = split_rows(pb.meas.t, origin)
+    train = training_problem(pb, n_train)
+    known = {k: v for k, v in vals.items() if k in train.space}
+    r, _, _ = held_out(pb, future_values(pb, train, known, rule), n_train, pb.meas.n_obs - 1)
+    return float(np.sqrt(np.mean(r**2)))
+
+
+def diagnose_twin(twin, directory: str | Path, *, forecast: bool = False,
+                  candidates: list[str] | None = None) -> dict:
+    """Simulate ``twin`` into ``directory``, fit its case by MAP, rank the candidates (by the
+    forecast rule with ``forecast``); one record."""
     t0 = time.perf_counter()
     cfg = load_case(write_twin(twin, Path(directory) / twin.name))
     problem = build_problem(cfg)
     base = refit(problem)
-    rk = rank_missing_effects(problem, base.values(), holdout=False)
+    rk = rank_missing_effects(problem, base.values(), candidates, holdout=False, forecast=forecast)
     rec = {
         "twin": twin.name,
         "category": twin.category,
@@ -73,13 +97,45 @@ def diagnose_twin(twin, directory: str | Path) -> dict:
                 ideal = float("nan")
             rec.update(refit_rmse=e.rmse, true_rmse=ideal, rmse_ratio=e.rmse / ideal,
                        data_score=e.data_score)
+    if rk.forecast is not None:
+        rec.update(forecast_rmse_sigma=rk.forecast.rmse_sigma,
+                   gains={e.name: round(e.forecast_gain, 2) for e in rk.entries},
+                   forecast_shares={e.name: round(e.forecast_share, 3) for e in rk.entries})
+        if not twin.hidden:
+            ideal = truth_forecast_rmse(cfg, [], rk.forecast.rule)
+            rec.update(truth_forecast_rmse=ideal, forecast_ratio=rk.forecast.rmse / ideal)
     rec["seconds"] = time.perf_counter() - t0
     return rec
 
 
-def diagnose_twins(twins, directory: str | Path) -> list[dict]:
+def diagnose_twins(twins, directory: str | Path, *, forecast: bool = False) -> list[dict]:
     """:func:`diagnose_twin` of every twin, in order."""
-    return [diagnose_twin(t, directory) for t in twins]
+    return [diagnose_twin(t, directory, forecast=forecast) for t in twins]
+
+
+#: the catalogue effects and the off-catalogue ones of the forecast rule's campaign
+FORECAST_CATALOGUE = ("wind_convection", "evaporation", "evapotranspiration", "radiation_factor",
+                      "conductivity_temperature", "two_layer", "sensor_bias", "sensor_depth",
+                      "surface_layer")
+FORECAST_OFF = ("sensor_sun", "sensor_lag", "shading", "buried_source")
+
+
+def forecast_campaign_twins(n_clean: int = 40, n_effect: int = 10, n_off: int = 3, *,
+                            hours: float = 40.0, input_sigma: bool = True) -> list:
+    """The forecast rule's calibration twins (:func:`~pavement_mcmc.synthetic.corpus.forecast_twins`):
+    ``n_clean`` clean, ``n_effect`` of each :data:`FORECAST_CATALOGUE` effect, ``n_off`` of each
+    :data:`FORECAST_OFF` effect, interleaved (one round of every kind per seed) so that a run cut
+    short still covers every kind."""
+    kw = {"hours": hours, "input_sigma": input_sigma}
+    out = []
+    for k in range(max(n_clean, n_effect, n_off)):
+        if k < n_clean:
+            out += forecast_twins((), (600 + k,), **kw)
+        if k < n_effect:
+            out += forecast_twins(FORECAST_CATALOGUE, (700 + k,), **kw)
+        if k < n_off:
+            out += forecast_twins(FORECAST_OFF, (800 + k,), **kw)
+    return out
 
 
 def rates(records: list[dict]) -> dict:
@@ -103,4 +159,5 @@ def rates(records: list[dict]) -> dict:
         "true_first": per_effect,
         "none_of_these": (sum(r["none_of_these"] and r["claimed"] is None for r in off), len(off)),
         "off_confident_claims": [(r["twin"], r["claimed"]) for r in confident],
+        "forecast_ratio": [round(r["forecast_ratio"], 3) for r in clean if "forecast_ratio" in r],
     }

@@ -6,6 +6,8 @@ from dataclasses import dataclass, field
 
 from ..physics.materials import check_values, declared_material
 from .energy import EnergyBalance, energy_balance
+from .forecast import Forecast
+from .forecast import forecast as forecast_skill
 from .ranking import Ranking, rank_missing_effects
 from .residuals import ResidualReport, analyse_point
 
@@ -13,7 +15,8 @@ from .residuals import ResidualReport, analyse_point
 @dataclass
 class Diagnosis:
     """Residual report at the point estimate, the plausibility findings of its kappa, C and h,
-    the energy balance of the surface (:mod:`.energy`) and (optionally) the missing-effect ranking."""
+    the energy balance of the surface (:mod:`.energy`), (optionally) the missing-effect ranking
+    and the forecast skill of the base model (:mod:`.forecast`)."""
 
     problem: object
     values: dict[str, float]
@@ -21,6 +24,7 @@ class Diagnosis:
     ranking: Ranking | None
     findings: list = field(default_factory=list)
     energy: EnergyBalance | None = None
+    forecast: Forecast | None = None
 
     def to_dict(self) -> dict:
         out = {
@@ -33,6 +37,8 @@ class Diagnosis:
             out["energy_balance"] = self.energy.to_dict()
         if self.ranking is not None:
             out["ranking"] = self.ranking.to_dict()
+        if self.forecast is not None:
+            out["forecast"] = self.forecast.to_dict()
         return out
 
 
@@ -43,6 +49,7 @@ def diagnose(
     rank: bool = True,
     candidates: list[str] | None = None,
     holdout: bool = True,
+    forecast: bool | dict = False,
 ) -> Diagnosis:
     """Diagnose a fitted model.
 
@@ -54,6 +61,9 @@ def diagnose(
     rank : also rank the missing-effect candidates (MAP refits, a few seconds).
     candidates : restrict the candidates (default: the whole catalogue and ``finer_h``).
     holdout : break look-alike ties by a leave-one-sensor-out check.
+    forecast : forecast skill of the base fit and of every candidate, and the claim rule that
+        rests on it (:mod:`.entries`): True or options of :func:`~.forecast.forecast`. A window
+        too short to hold a part out falls back to the in-sample rule.
 
     Returns
     -------
@@ -70,5 +80,11 @@ def diagnose(
         alarm = any(f.level == "alarm" and f.quantity in ("kappa", "C") for f in findings)
         energy = energy_balance(problem, values, top_fit=alarm or bool(problem.model.plates))
     ranking = (rank_missing_effects(problem, values, candidates, holdout=holdout, energy=energy,
-                                    report=rep) if rank else None)
-    return Diagnosis(problem, values, rep, ranking, findings, energy)
+                                    report=rep, forecast=forecast) if rank else None)
+    fc = None if ranking is None else ranking.forecast
+    if fc is None and forecast is not False:
+        try:
+            fc = forecast_skill(problem, values, **({} if forecast is True else dict(forecast)))
+        except ValueError:  # a window too short to hold a part out
+            fc = None
+    return Diagnosis(problem, values, rep, ranking, findings, energy, fc)

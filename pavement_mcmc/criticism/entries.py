@@ -26,6 +26,16 @@ there and is claimed instead (the coarse h is itself the misspecification). 20 i
 clean maximum; the true effect's data part on the catalogue twins is 40-1260 (measured 0/24
 false alarms, true effect first on 13 of 20 catalogue twins).
 
+**Forecast rule** (a ranking with ``forecast`` on, :mod:`.forecast`): in-sample scores cannot
+tell a law from enough freedom (a free h(t) with 100+ values fits as well as h = a + b v with two),
+prediction can. The training part of the window is refitted, the rest predicted from the forcing
+alone, and a candidate is claimable when its forecast gain :math:`F_c`
+(:func:`~.forecast.forecast_gain`) passes :data:`FORECAST_THRESHOLD` and it does not fit worse
+(:math:`S_c \ge -` :data:`THRESHOLD`: the in-sample fit, charged for the parameters it adds and
+credited for those it removes, is no worse); :math:`D_c` stays a supporting figure. "Partly"
+then needs the forecast to remove :data:`PARTIAL` of the base forecast's excess error (and the
+in-sample misfit not to rise).
+
 One exception (the real-data issue): when the base fit is **physically impossible** (kappa or C
 outside every ground material, :func:`~pavement_mcmc.physics.materials.check_values`), a
 candidate that brings them back into range without a worse misfit
@@ -65,6 +75,11 @@ FLOOR = 1.1
 #: least this share of the excess mean square misfit above the floor (a second effect may be
 #: missing too); below it the answer is "none of these"
 PARTIAL = 0.5
+
+
+#: forecast gain :math:`F_c` a candidate must pass under the forecast rule (module doc;
+#: measured on clean twins with ``benchmarks/forecast_campaign.py``)
+FORECAST_THRESHOLD = 10.0
 
 
 #: per-sensor nuisances: claimable only if their offsets are not one coherent depth profile
@@ -155,6 +170,9 @@ class Entry:
     excess_share : share of the base fit's excess mean square misfit above :data:`FLOOR` that
         this candidate removes (1: all of it).
     loso_lpd : leave-one-sensor-out log predictive density per datum (look-alikes only).
+    forecast : the candidate's :class:`~.forecast.Forecast` (forecast rule only; not serialised).
+    forecast_gain : its gain :math:`F_c` over the base forecast; ``forecast_share`` the share of
+        the base forecast's excess error it removes (None without the forecast rule).
     threshold, data_threshold : the claim thresholds.
     fit : the refit (not serialised).
     """
@@ -179,9 +197,20 @@ class Entry:
     restores_plausibility: bool = False
     excess_share: float = 0.0
     loso_lpd: float | None = None
+    forecast_gain: float | None = None
+    forecast_share: float | None = None
+    forecast_rmse_sigma: float | None = None
     threshold: float = THRESHOLD
     data_threshold: float = DATA_THRESHOLD
     fit: Fit | None = field(default=None, repr=False)
+    forecast: object | None = field(default=None, repr=False)
+
+    @property
+    def forecasts_better(self) -> bool:
+        """The forecast rule's test (module doc): the gain passes :data:`FORECAST_THRESHOLD`
+        and the in-sample fit is not worse."""
+        return (self.forecast_gain is not None and self.forecast_gain > FORECAST_THRESHOLD
+                and self.score >= -self.threshold)
 
     @property
     def prior_driven(self) -> bool:
@@ -202,6 +231,8 @@ class Entry:
         bound, no coherent per-sensor profile; or :attr:`plausibility_claim`."""
         if self.plausibility_claim:
             return True
+        if self.forecast_gain is not None:
+            return self.forecasts_better and not self.at_bound and not self.profile
         return (self.score > self.threshold and self.data_score > self.data_threshold
                 and not self.at_bound and not self.profile)
 
@@ -213,11 +244,19 @@ class Entry:
 
     @property
     def partial(self) -> bool:
-        """It does not explain the misfit but removes at least :data:`PARTIAL` of its excess."""
-        return not self.explains and self.excess_share >= PARTIAL
+        """It does not explain the misfit but removes at least :data:`PARTIAL` of its excess;
+        under the forecast rule, of the base forecast's excess error (a law that replaces free
+        parameters may remove little in sample), without raising the in-sample misfit."""
+        if self.explains:
+            return False
+        if self.forecast_share is not None:
+            return self.forecast_share >= PARTIAL and self.excess_share >= 0.0
+        return self.excess_share >= PARTIAL
 
     def to_dict(self) -> dict:
-        d = {k: v for k, v in self.__dict__.items() if k != "fit"}
+        d = {k: v for k, v in self.__dict__.items() if k not in ("fit", "forecast")}
+        if self.forecast is not None:
+            d["forecast"] = self.forecast.to_dict()
         d.update(detected=self.detected, prior_driven=self.prior_driven, explains=self.explains,
                  plausibility_claim=self.plausibility_claim)
         return d
@@ -239,6 +278,7 @@ class Ranking:
     unexplained : the "none of these" analysis (:class:`~.unexplained.Unexplained`) when no
         catalogue entry explains the misfit, else None.
     findings : plausibility findings of the base fit (:class:`~pavement_mcmc.physics.materials.Finding`).
+    forecast : the base model's :class:`~.forecast.Forecast` (forecast rule), else None.
     points_at : where the evidence points when no entry is claimed: ``{"where": "surface energy
         balance", "candidates": [...]}`` when the energy balance (:mod:`.energy`) says the
         surface boundary is wrong and the surface candidates score highest; else None.
@@ -255,6 +295,7 @@ class Ranking:
     unexplained: object | None = None
     findings: list = field(default_factory=list)
     points_at: dict | None = None
+    forecast: object | None = None
 
     @property
     def none_of_these(self) -> bool:
@@ -280,4 +321,6 @@ class Ranking:
             "data_threshold": DATA_THRESHOLD,
             "candidates": [e.to_dict() for e in self.entries],
             "skipped": self.skipped,
+            "forecast": None if self.forecast is None else self.forecast.to_dict(),
+            "forecast_threshold": FORECAST_THRESHOLD,
         }

@@ -1,9 +1,12 @@
-"""Compare runs: the error ledger (RMSE per sensor, max |r|, lag-1, chi2/dof, hold-out score).
+"""Compare runs: the error ledger (RMSE per sensor, max |r|, lag-1, chi2/dof, hold-out score,
+forecast skill), ranked by the forecast.
 
 Every row is computed from a run's problem and point estimate (posterior mean of a stored run);
 the out-of-sample score is the leave-one-sensor-out log predictive density per datum with a MAP
 refit per fold (:mod:`.holdout`), which keeps each held-out series' time correlation out of the
-fit. Changes are reported against the first run.
+fit. The forecast (:mod:`.forecast`) refits the start of each run's window and predicts the rest
+from the forcing alone; runs are ranked by its log predictive density (higher first). Changes are
+reported against the first run.
 """
 
 from __future__ import annotations
@@ -12,6 +15,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .forecast import Forecast
+from .forecast import forecast as forecast_skill
 from .holdout import HoldOut, leave_one_sensor_out
 from .residuals import analyse_point
 
@@ -32,6 +37,7 @@ class Row:
     holdout: HoldOut | None
     residuals: np.ndarray
     t: np.ndarray
+    forecast: Forecast | None = None
 
     def to_dict(self) -> dict:
         return {
@@ -44,6 +50,7 @@ class Row:
             "chi2_per_dof": self.chi2_dof,
             "n_free": self.n_free,
             "holdout": None if self.holdout is None else self.holdout.to_dict(),
+            "forecast": None if self.forecast is None else self.forecast.to_dict(),
         }
 
 
@@ -69,9 +76,14 @@ class Ledger:
             out.append(d)
         return out
 
+    def by_forecast(self) -> list[Row]:
+        """Rows with a forecast, best first (highest log predictive density per datum)."""
+        return sorted((r for r in self.rows if r.forecast is not None), key=lambda r: -r.forecast.lpd)
+
     def to_dict(self) -> dict:
         return {
             "rows": [r.to_dict() for r in self.rows],
+            "ranked_by_forecast": [r.label for r in self.by_forecast()],
             "change_vs_first": self.deltas(),
             "holdout_method": "leave-one-sensor-out, MAP refit per fold, plug-in Gaussian "
             "log predictive density per held-out datum",
@@ -83,10 +95,19 @@ class Ledger:
             f"{'run':<22}{'RMSE':>7}"
             + "".join(f"{s:>8}" for s in labs)
             + f"{'max|r|':>8}{'lag1':>6}{'chi2/dof':>9}{'LOSO lpd':>10}{'dRMSE':>8}"
+            + f"{'fc RMSE':>9}{'fc lpd':>8}"
         )
-        lines = [
+        ranked = self.by_forecast()
+        lines = []
+        if ranked:
+            fc = ranked[0].forecast
+            lines += [f"Ranked by forecast of the held-out {fc.horizon:g} h (fit to the first "
+                      f"{fc.origins[-1]:g} h, then the forcing alone): "
+                      + " > ".join(f"{r.label} ({r.forecast.rmse:.3f} °C)" for r in ranked), ""]
+        lines += [
             "RMSE and residuals in degC; LOSO lpd: leave-one-sensor-out log predictive "
-            "density per datum (higher is better)",
+            "density per datum; fc: forecast RMSE and log predictive density per datum (higher "
+            "is better)",
             head,
         ]
         for r, d in zip(self.rows, self.deltas(), strict=True):
@@ -95,12 +116,23 @@ class Ledger:
                 f"{r.label[:21]:<22}{r.rmse:7.3f}"
                 + "".join(f"{v:8.3f}" for v in r.rmse_sensors)
                 + f"{r.max_abs:8.2f}{r.lag1:6.2f}{r.chi2_dof:9.2f}{lpd}{d['rmse_pct']:+7.1f}%"
+                + (f"{r.forecast.rmse:9.3f}{r.forecast.lpd:8.2f}" if r.forecast is not None
+                   else f"{'-':>9}{'-':>8}")
             )
         return "\n".join(lines)
 
 
-def ledger(runs: list[tuple[str, object, dict[str, float]]], *, holdout: bool = True) -> Ledger:
-    """Build the ledger of ``runs``: ``[(label, problem, point estimate by name), ...]``."""
+def _forecast_or_none(problem, values) -> Forecast | None:
+    try:
+        return forecast_skill(problem, values)
+    except ValueError:  # a window too short to hold a part out
+        return None
+
+
+def ledger(runs: list[tuple[str, object, dict[str, float]]], *, holdout: bool = True,
+           forecast: bool = False) -> Ledger:
+    """Build the ledger of ``runs``: ``[(label, problem, point estimate by name), ...]``;
+    ``forecast``: also each run's forecast skill (:mod:`.forecast`), and rank by it."""
     rows = []
     for label, problem, values in runs:
         rep = analyse_point(problem, values)
@@ -124,6 +156,7 @@ def ledger(runs: list[tuple[str, object, dict[str, float]]], *, holdout: bool = 
                 holdout=leave_one_sensor_out(problem, values) if holdout else None,
                 residuals=r,
                 t=rep.t,
+                forecast=_forecast_or_none(problem, values) if forecast else None,
             )
         )
     return Ledger(rows)

@@ -58,6 +58,7 @@ from ..physics.materials import check_values, declared_material
 from .candidates import finer_h_spec, fit_extension, h_spec_of, h_start, variant
 from .entries import (
     DATA_THRESHOLD,
+    FLOOR,
     PER_SENSOR,
     THRESHOLD,
     Entry,
@@ -68,6 +69,8 @@ from .entries import (
     score,
 )
 from .fitting import Fit, refit
+from .forecast import forecast as forecast_skill
+from .forecast import forecast_gain, forecast_share
 from .holdout import leave_one_sensor_out
 from .residuals import ResidualReport, analyse_point, noise_like, plain_signals
 from .unexplained import unexplained
@@ -158,7 +161,9 @@ def _none_of_these(best: Entry | None, entries: list[Entry], rep, base: Fit):
         why.append(f"the best candidate, {best.name}, leaves RMSE {best.rmse_sigma:.2f} σ "
                    f"and lag-1 {best.rho:.2f}")
     elif best is None and not noise_like(rep):
-        why.append("no candidate's data part passes the threshold")
+        fc = any(e.forecast_gain is not None for e in entries)
+        why.append("no candidate forecasts the held-out period better by the margin" if fc
+                   else "no candidate's data part passes the threshold")
     if not why:
         return None
     if coherent:
@@ -181,6 +186,7 @@ def rank_missing_effects(
     holdout: bool = True,
     energy=None,
     report: ResidualReport | None = None,
+    forecast: bool | dict = False,
 ) -> Ranking:
     """Rank the catalogue's extensions (and a finer h(t)) by how much they would lower the misfit.
 
@@ -199,6 +205,9 @@ def rank_missing_effects(
         names the surface energy balance even if no entry is claimed.
     report : the residual report of ``values`` (:func:`~.residuals.analyse_point`), if known
         (:func:`~.diagnose.diagnose` has it): not computed again.
+    forecast : claim by forecast skill (:mod:`.entries`, forecast rule): True, or a dict of
+        options of :func:`~.forecast.forecast` (``origins``, ``horizon``, ``rule``); False: the
+        in-sample rule alone.
 
     Returns
     -------
@@ -243,14 +252,19 @@ def rank_missing_effects(
         entries.append(_entry(ext.name, desc, base, fit, ext, patterns, impossible, declared))
     for e in entries:
         e.threshold = threshold
+    fbase = _forecasts(base, entries, forecast) if forecast is not False else None
     # claimable candidates first (plausibility claims first among them, then by score), then
     # the rest by score
-    entries.sort(key=lambda e: (not e.detected, not e.plausibility_claim, -e.score))
+    entries.sort(key=lambda e: (not e.detected, not e.plausibility_claim,
+                                -(e.score if e.forecast_gain is None else e.forecast_gain)))
     lookalikes: list[str] = []
     if entries and entries[0].detected:
-        top = entries[0].score
+        def key(e):
+            return e.score if e.forecast_gain is None else e.forecast_gain
+
+        top = key(entries[0])
         margin = max(threshold, 0.05 * top)
-        close = [e for e in entries if e.detected and e.score >= top - margin
+        close = [e for e in entries if e.detected and key(e) >= top - margin
                  and e.plausibility_claim == entries[0].plausibility_claim]
         if len(close) > 1:
             lookalikes = [e.name for e in close]
@@ -264,6 +278,23 @@ def rank_missing_effects(
     if none is not None and best is not None and not (best.plausibility_claim or best.partial):
         best = None  # it helps a little but does not explain: no confident claim
     points = _points_at(entries, energy, threshold) if best is None else None
-    verdict = make_verdict(best, entries, lookalikes, rep, base, none, findings, points)
+    verdict = make_verdict(best, entries, lookalikes, rep, base, none, findings, points, fbase)
     return Ranking(entries, base, rep, verdict, best, lookalikes, skipped, threshold, none, findings,
-                   points)
+                   points, fbase)
+
+
+def _forecasts(base: Fit, entries: list[Entry], options: bool | dict):
+    """The base model's forecast, and each candidate's with its gain and share (forecast rule of
+    :mod:`.entries`); None (in-sample rule) when the window is too short to hold a part out."""
+    opts = {} if options is True else dict(options)
+    try:
+        fb = forecast_skill(base.problem, base.values(), **opts)
+    except ValueError:
+        return None
+    for e in entries:
+        fc = forecast_skill(e.fit.problem, e.fit.values(), **opts)
+        e.forecast = fc
+        e.forecast_gain = forecast_gain(fb, fc)
+        e.forecast_share = forecast_share(fb, fc, FLOOR)
+        e.forecast_rmse_sigma = fc.rmse_sigma
+    return fb

@@ -7,7 +7,7 @@ refit's (both MAP fits of the same data); a candidate that helps without explain
 
 from __future__ import annotations
 
-from .entries import DATA_THRESHOLD
+from .entries import DATA_THRESHOLD, FORECAST_THRESHOLD
 from .residuals import ResidualReport, noise_like
 
 
@@ -58,12 +58,38 @@ def _where(points, entries) -> str:
             "entries allow. ")
 
 
+def forecast_sentence(best, entries, fbase) -> str:
+    """The forecast rule's sentence (:mod:`.entries`): how the claimed candidate forecasts the
+    held-out period, or that none forecasts it better by the margin ('' without forecasts)."""
+    if fbase is None:
+        return ""
+    period = f"the held-out {fbase.horizon:g} h"
+    if best is not None and best.forecast_gain is not None:
+        return (f" It forecasts {period} from the forcing alone better than the base model: "
+                f"RMSE {fbase.rmse_sigma:.2f} σ -> {best.forecast_rmse_sigma:.2f} σ (gain F = "
+                f"{best.forecast_gain:.0f} > {FORECAST_THRESHOLD:g}).")
+    top = max((e for e in entries if e.forecast_gain is not None),
+              key=lambda e: e.forecast_gain, default=None)
+    if top is None:
+        return ""
+    why = ""
+    if top.forecast_gain > FORECAST_THRESHOLD:
+        why = (", but it leaves too much of the forecast error unexplained" if top.detected else
+               ", but it fits worse in sample" if top.score < -top.threshold else
+               f", but {', '.join(top.at_bound)} sits at a bound" if top.at_bound else
+               ", but its offsets line up with depth" if top.profile else "")
+    return (f" No candidate forecasts {period} better by the margin F > {FORECAST_THRESHOLD:g} "
+            f"(base forecast RMSE {fbase.rmse_sigma:.2f} σ; best {top.name}: "
+            f"{top.forecast_rmse_sigma:.2f} σ, F = {top.forecast_gain:.0f}{why}).")
+
+
 def make_verdict(best, entries, lookalikes, rep: ResidualReport, base, none, findings,
-                 points=None) -> str:
+                 points=None, fbase=None) -> str:
     """One paragraph: where the evidence points, the missing effect (or none, or "none of
-    these"), the plausibility alarms, then the prior-driven candidates that are not claimed."""
+    these") and how it forecasts, the plausibility alarms, then the prior-driven candidates that
+    are not claimed."""
     txt = (_where(points, entries) if points else "") + _verdict_main(
-        best, entries, lookalikes, rep, base, none)
+        best, entries, lookalikes, rep, base, none) + forecast_sentence(best, entries, fbase)
     alarms = [f for f in findings if f.level == "alarm"]
     if alarms:
         txt += (" The base fit is physically impossible (" + "; ".join(f.text() for f in alarms)
@@ -74,15 +100,17 @@ def make_verdict(best, entries, lookalikes, rep: ResidualReport, base, none, fin
 def _verdict_main(best, entries, lookalikes, rep, base, none) -> str:
     if best is not None:
         head = "Missing effect" if none is None else "Missing effect (partly)"
-        txt = (f"{head}: {best.name} (score {best.score:.0f}, data part {best.data_score:.0f}; "
-               f"the MAP RMSE {rmse_change(base.rmse, best.rmse)} = {best.rmse_sigma:.2f} σ).")
+        rule = "forecast gain" if best.forecast_gain is not None else "score"
+        txt = (f"{head}: {best.name} (by its {rule}; in sample: score {best.score:.0f}, data "
+               f"part {best.data_score:.0f}, the MAP RMSE {rmse_change(base.rmse, best.rmse)} = "
+               f"{best.rmse_sigma:.2f} σ).")
         if best.plausibility_claim:
             v = best.fit.values()
             txt += (f" It brings kappa = {v['kappa']:.3g} W m-1 K-1 and C = {v['C'] * 1e-6:.3g} "
                     "MJ m-3 K-1 back into the range of ground materials without a worse fit.")
         others = [n for n in lookalikes if n != best.name]
         if others:
-            txt += (f" Look-alikes with a similar in-sample score: {', '.join(others)}; "
+            txt += (f" Look-alikes with a similar {rule}: {', '.join(others)}; "
                     f"{best.name} predicts held-out sensors best.")
         if best.name == "radiation_factor":
             txt += (
@@ -104,7 +132,9 @@ def _verdict_main(best, entries, lookalikes, rep, base, none) -> str:
         return (
             f"No missing effect detected: RMSE {rep.rmse:.3f} °C = {rep.rmse_sigma:.2f} σ is "
             f"within the misfit floor and the residuals show no significant structure "
-            f"(no candidate's data part passes {DATA_THRESHOLD:g})."
+            + (f"(no candidate forecasts better by the margin F > {FORECAST_THRESHOLD:g})."
+               if any(e.forecast_gain is not None for e in entries)
+               else f"(no candidate's data part passes {DATA_THRESHOLD:g}).")
         )
     best_data = max((e.data_score for e in entries), default=float("nan"))
     return (

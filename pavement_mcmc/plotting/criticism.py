@@ -140,3 +140,24 @@ def plot_compare(ledger, fig: Figure | None = None) -> Figure:
     axes[0].set_ylabel("pred − meas (°C)")
     axes[-1].legend(fontsize=7)
     return fig
+
+
+def plot_forecast(base, best=None, fig: Figure | None = None, labels=("base", "")) -> Figure:
+    """Measured vs predicted temperatures over the held-out period of a forecast
+    (:class:`~pavement_mcmc.criticism.forecast.Forecast`): one panel per model (the base and,
+    if given, the best candidate), sensors in colour, measured as dots, predicted as lines."""
+    shown = [(base, labels[0] or "base")] + ([(best, labels[1] or "candidate")] if best else [])
+    fig = new_figure(fig, (4.6 * len(shown) + 0.5, 3.8))
+    axes = np.atleast_1d(fig.subplots(1, len(shown), sharey=True))
+    for ax, (fc, name) in zip(axes, shown, strict=True):
+        th = fc.t / 3600.0
+        for s in range(fc.observed.shape[1]):
+            c = SENSOR_COLOURS[s % len(SENSOR_COLOURS)]
+            ax.plot(th, fc.observed[:, s], ".", ms=2.5, color=c)
+            ax.plot(th, fc.predicted[:, s], "-", lw=1.0, color=c)
+        ax.set_title(f"{name}: forecast RMSE {fc.rmse:.3f} °C = {fc.rmse_sigma:.2f} σ", fontsize=9)
+        ax.set_xlabel("time (h)")
+    axes[0].set_ylabel("temperature (°C): dots measured, lines predicted")
+    fig.suptitle(f"held-out {base.horizon:g} h after a fit to the first {base.origins[-1]:g} h "
+                 f"(future h(t): {base.rule} rule)", fontsize=9)
+    return fig

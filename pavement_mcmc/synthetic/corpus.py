@@ -30,6 +30,8 @@ import copy
 from dataclasses import dataclass, replace
 from pathlib import Path
 
+import numpy as np
+
 from ..data.toml_writer import to_toml
 from .effects import EFFECTS, NEW_CATALOGUE_EFFECTS, OFF_CATALOGUE_EFFECTS
 from .io import write_case
@@ -43,6 +45,7 @@ __all__ = [
     "catalogue_twins",
     "clean_twins",
     "field_twins",
+    "forecast_twins",
     "get_twin",
     "off_catalogue_twins",
     "with_seed",
@@ -287,6 +290,44 @@ def field_twins() -> list[Twin]:
                 description=f"grass-site twin, {hours:g} h; hidden: {', '.join(effects) or 'none'}",
             )
         )
+    return twins
+
+
+_FC_H_DIURNAL = (8.0, 7.0, 9.0, 14.0, 16.0, 11.0)  # at 00, 04, ... 20 h: breezier afternoons
+FORECAST_GRID = {"dx": 0.005, "dt": 120.0, "scheme": "cn"}
+"""The inversion's grid for the forecast twins (30 min rows)."""
+
+
+def forecast_h_knots(hours: float, seed: int) -> tuple[float, ...]:
+    """True h(t) knots every 4 h, W m-2 K-1: a diurnal cycle (7-16) times a day-to-day factor
+    (0.85-1.15, drawn from ``seed``): tomorrow's h is like today's, not equal to it."""
+    rng = np.random.default_rng(seed)
+    days = rng.uniform(0.85, 1.15, int(hours // 24) + 2)
+    n = int(round(hours / 4.0)) + 1
+    return tuple(round(_FC_H_DIURNAL[k % 6] * days[k // 6], 3) for k in range(n))
+
+
+def forecast_twins(effects: tuple[str, ...] = (), seeds=(501,), *, hours: float = 40.0,
+                   input_sigma: bool = False, category: str | None = None) -> list[Twin]:
+    """Twins for the forecast rule of the criticism: ``hours`` of 30 min rows (the last quarter
+    is held out), a diurnal h(t) that changes from day to day (:func:`forecast_h_knots`), a
+    shower in the fitted and in the held-out part; the inversion in Case C form (one h per
+    interval, smoothness prior), loose ("wide") kappa / C priors, ``input_sigma`` optional.
+    One twin per effect (none: ``()`` gives clean twins) and seed."""
+    twins = []
+    for effect in effects or (None,):
+        for seed in seeds:
+            eff = {effect: {}} if effect else {}
+            rain = ((9.0, 1.0, 4.0), (hours - 8.0, 1.0, 4.0))
+            spec = SyntheticSpec(seed=seed, sigma=SIGMA, hours=hours, step_minutes=30.0,
+                                 h_knots=forecast_h_knots(hours, seed), effects=eff, rain=rain)
+            cat = category or ("clean" if effect is None else
+                               "off_catalogue" if effect in OFF_CATALOGUE_EFFECTS else "catalogue")
+            inv = _inversion(spec, H_FORMS["caseC"], _priors("loose", spec.kappa, spec.C),
+                             FORECAST_GRID, input_sigma)
+            twins.append(Twin(name=f"forecast-{effect or 'clean'}-s{seed}", spec=spec, inversion=inv,
+                              category=cat, hidden=(effect,) if effect else (),
+                              description=f"forecast twin; hidden: {effect or 'none'}"))
     return twins
 
 

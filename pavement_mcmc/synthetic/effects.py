@@ -71,6 +71,10 @@ buried_source               ``source_flux`` (W m-2, > 0 heats), ``source_depth``
                             third observed sensor (between the last two sensors, bottom
                             included, if there are fewer); 15 W m-2 is mostly absorbed by
                             kappa in a fit of the 0-5 cm geometry.
+sensor_sun                  ``sun_sensor_cm`` (cm, nominal depth of one observed sensor),
+                            ``sun_gain`` (K per kW m-2): that sensor, in the sun, reads warm
+                            by sun_gain x the absorbed short-wave. Default: the shallowest
+                            observed sensor, 1.5 (about +1.2 K at noon in summer).
 ==========================  ===============================================================
 
 Default strengths of the off-catalogue effects were chosen with MAP refits of the base model
@@ -295,6 +299,20 @@ class BuriedSource(TwinEffect):
                 f"effect 'buried_source': source_depth={p['source_depth']:g} m must lie "
                 f"between the surface and the bottom sensor ({bottom_cm / 100.0:g} m)"
             )
+
+
+@register_twin_effect
+class SensorSun(TwinEffect):
+    name = "sensor_sun"
+    group = "off_catalogue"
+
+    def defaults(self, kappa, C, depths_cm, bottom_cm):
+        return {"sun_sensor_cm": float(depths_cm[0]), "sun_gain": 1.5}
+
+    def place(self, p, depths_cm, bottom_cm):
+        if not any(abs(p["sun_sensor_cm"] - d) < 1e-9 for d in depths_cm):
+            raise ValueError(f"effect 'sensor_sun': sun_sensor_cm={p['sun_sensor_cm']:g} is "
+                             f"not an observed sensor; valid: {', '.join(f'{d:g}' for d in depths_cm)}")
 
 
 def _group(group: str) -> tuple[str, ...]:

@@ -353,6 +353,10 @@ def simulate(spec: SyntheticSpec) -> tuple[dict[str, np.ndarray], Truth]:
         T_k = np.array([np.interp(true_depths[k], z, r) for r in run.profiles])
         reading = T_clean.copy()
         reading[:, k] = first_order_lag(t_all, T_k, p["lag_minutes"] * 60.0)[n_spin:][keep]
+    if "sensor_sun" in effects:  # a sensor in the sun reads warm by day
+        k = list(spec.depths_cm).index(effects["sensor_sun"]["sun_sensor_cm"])
+        reading = reading.copy()
+        reading[:, k] += effects["sensor_sun"]["sun_gain"] * sw[lv] / 1000.0
     recorded = reading + spec.sigma * noise[:, : true_depths.size]
     if "sensor_bias" in effects:
         recorded[:, : depths.size] += np.array(list(effects["sensor_bias"].values()))
