@@ -31,7 +31,7 @@ $(STAMP): pyproject.toml
 
 install: $(STAMP)
 
-# the report's browser test (tests/test_report_browser.py) needs a headless chromium: Debian's
+# the report's browser test (tests/report/test_report_browser.py) needs a headless chromium: Debian's
 # is installed where apt-get can (as root); elsewhere that test skips, saying why
 chromium:
 	@command -v chromium >/dev/null 2>&1 || { [ "$$(id -u)" = 0 ] && command -v apt-get >/dev/null \

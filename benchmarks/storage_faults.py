@@ -11,7 +11,7 @@
    and ends with the undisturbed ``batch.csv`` byte for byte.
 
 ``python benchmarks/storage_faults.py [OUT]`` prints one line per trial and a summary. The
-scheduler killed 3 times during a batch is ``tests/test_batch_scheduler.py`` (slow mark).
+scheduler killed 3 times during a batch is ``tests/batch/test_batch_scheduler.py`` (slow mark).
 """
 
 from __future__ import annotations

@@ -176,7 +176,7 @@ def ess(x: np.ndarray, c: float = 5) -> np.ndarray:
     ``tau`` is :func:`integrated_time`'s Sokal window over the autocorrelation relative to the
     pooled variance (:func:`_pooled_rho`, Stan's and ArviZ's), not emcee's per-chain average:
     that one, each chain centred on its own mean, makes the ESS of AR(1) chains 1.2 times too
-    large at 50 tau per chain and 1.5 times at 20 tau (``tests/test_diagnostics_crosscheck.py``
+    large at 50 tau per chain and 1.5 times at 20 tau (``tests/diagnostics/test_diagnostics_crosscheck.py``
     measures it), and ignores chains that disagree. The same, to rounding, for one chain. For emcee
     walkers this is an approximation: the walkers are not independent, so the ``n_chains``
     factor overstates the information when the ensemble is strongly correlated.

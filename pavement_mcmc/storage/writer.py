@@ -28,7 +28,7 @@ def _pid_alive(pid: int) -> bool:
     """Whether process ``pid`` still runs. A zombie does not: it has exited and holds no file,
     but ``kill(pid, 0)`` still finds it until its parent reaps it (a killed batch's Dask worker,
     orphaned, stays a zombie for about a second here before init reaps it; a batch run again
-    at once found its store "being written" by it, tests/test_batch.py)."""
+    at once found its store "being written" by it, tests/batch/test_batch.py)."""
     if pid <= 0:
         return False
     try:
