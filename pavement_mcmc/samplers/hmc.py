@@ -234,7 +234,9 @@ class HMCSampler(Sampler):
             f = ll + space.log_prior(theta)
         bad = ~(np.isfinite(f) & np.all(np.isfinite(g), axis=1))
         f = np.where(bad, -np.inf, f)
-        g = np.where(bad[:, None], 0.0, g)
+        # one memory layout for every gradient (the adjoint's, column-major): it decides
+        # BLAS's summation order in ``g @ L``, so a restored ``g`` must have it too
+        g = np.asfortranarray(np.where(bad[:, None], 0.0, g))
         return f, g, ll, np.where(bad[:, None], np.inf, bl)
 
     def _joint_logp(self, theta: np.ndarray) -> np.ndarray:
@@ -378,6 +380,7 @@ class HMCSampler(Sampler):
         for k in ("idx", "hcols", "hpos"):
             setattr(self, k, getattr(self, k).astype(int))
         self.tlog = self.tlog.astype(int)
+        self.g = np.asfortranarray(self.g)  # the layout of :meth:`_value_grad`'s (issue 24)
         self.M = self.L @ self.L.T
         self.lo, self.hi = self.posterior.space.bounds()
         self._set_coords()

@@ -21,6 +21,29 @@ def _store(post, n):
     return MemoryStore.create(post.space.free, post.blob_names, n, {"sampler": "hmc"})
 
 
+def _straight_and_resumed(post, opts, seed, n, k, n_adapt=50):
+    """``hmc`` run ``n`` steps straight, and run ``k`` steps then restored into a new sampler
+    and continued to ``n``: the straight sampler, the stopped one, the restored one and the
+    two runs' data."""
+
+    def prep():
+        s = get_sampler("hmc", post, n_chains=16, seed=seed, options=opts)
+        s.prepare(laplace=find_map(post))
+        return s
+
+    a = prep()
+    st_a = _store(post, a.n_chains)
+    run_sampler(a, st_a, ess_target=1e9, max_steps=n, n_adapt=n_adapt)
+    b = prep()
+    st_b = _store(post, b.n_chains)
+    run_sampler(b, st_b, ess_target=1e9, max_steps=k, n_adapt=n_adapt)
+    c = get_sampler("hmc", post, options=opts)
+    c.set_state(st_b.state)
+    st_c = MemoryStore.open_append(st_b)
+    run_sampler(c, st_c, ess_target=1e9, max_steps=n, n_adapt=n_adapt)
+    return a, b, c, st_a.read(), st_c.read()
+
+
 def _truncated(cut_sd=-0.3, seed=5):
     """A correlated 3-D Gaussian posterior with p0 >= mean0 + cut_sd * sd0: the bound cuts
     through the bulk, so the chains reflect off it all the time."""
@@ -185,26 +208,9 @@ def test_sqrt_coordinates_resume_bit_for_bit():
     """The coordinate kinds and the sqrt shift are part of hmc's state: a run stopped inside the
     adaptation and resumed with sqrt coordinates gives the uninterrupted run's chain bit for bit."""
     post = _near_zero(k_sd=-0.5)
-    opts = {"sqrt_at_zero": True, "metric_at": 40}
-
-    def prep():
-        s = get_sampler("hmc", post, n_chains=16, seed=7, options=opts)
-        s.prepare(laplace=find_map(post))
-        return s
-
-    a = prep()
-    assert list(a.tlog) == [2, 0, 0]
-    st_a = _store(post, a.n_chains)
-    run_sampler(a, st_a, ess_target=1e9, max_steps=120, n_adapt=50)
-    b = prep()
-    st_b = _store(post, b.n_chains)
-    run_sampler(b, st_b, ess_target=1e9, max_steps=35, n_adapt=50)
-    c = get_sampler("hmc", post, options=opts)
-    c.set_state(st_b.state)
-    assert list(c.tlog) == [2, 0, 0] and c.shift[0] == a.shift[0] > 0.0
-    st_c = MemoryStore.open_append(st_b)
-    run_sampler(c, st_c, ess_target=1e9, max_steps=120, n_adapt=50)
-    A, B = st_a.read(), st_c.read()
+    a, _, c, A, B = _straight_and_resumed(post, {"sqrt_at_zero": True, "metric_at": 40},
+                                          seed=7, n=120, k=35)
+    assert list(a.tlog) == [2, 0, 0] == list(c.tlog) and c.shift[0] == a.shift[0] > 0.0
     assert A.chain.shape[0] == 120
     for field in ("chain", "log_prob", "accepted"):
         np.testing.assert_array_equal(getattr(A, field), getattr(B, field))
@@ -448,3 +454,25 @@ def test_negative_sqrt_shift_is_refused():
     """A negative shift would make sqrt(x + c) NaN near 0: refused when the sampler is made."""
     with pytest.raises(ValueError, match="sqrt_shift must be >= 0, got -0.1"):
         get_sampler("hmc", _near_zero(k_sd=-0.5), options={"sqrt_at_zero": True, "sqrt_shift": -0.1})
+
+
+class _ColumnMajorGradient(LinearGaussian):
+    """The toy posterior with its gradient in column-major memory, as the adjoint sweep of
+    :class:`~pavement_mcmc.posterior.LogPosterior` returns it (Case C)."""
+
+    def loglik_and_grad(self, theta):
+        ll, g, bl = super().loglik_and_grad(theta)
+        return ll, np.asfortranarray(g), bl
+
+
+def test_resume_keeps_the_gradient_layout_and_the_chain_bit_for_bit():
+    """Issue 24: a resumed Case C fit left the uninterrupted one 16 steps after the restart.
+    The restored gradient was row-major while the running sampler's stays column-major, and
+    ``g @ L`` sums in another order for another layout (BLAS). The restored sampler keeps the
+    layout, and the run continues bit for bit after the adaptation."""
+    post = _ColumnMajorGradient(seed=3, d=60, n=120)
+    a, b, c, A, B = _straight_and_resumed(post, {"metric_at": 20}, seed=11, n=200, k=80)
+    assert c.g.strides == b.g.strides == a.g.strides
+    assert A.chain.shape[0] == 200
+    for field in ("chain", "log_prob", "accepted"):
+        np.testing.assert_array_equal(getattr(A, field), getattr(B, field))
