@@ -21,7 +21,7 @@ from pavement_mcmc.storage import read_run
 
 pytestmark = pytest.mark.slow
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 GRASS_CSV = ROOT / "runs" / "../../shared/data/goettingen_grass/measurements.csv"
 
 
