@@ -134,7 +134,7 @@ def damaged_files(out: Path) -> tuple[int, int, int, int, int]:
 
 
 def batch_redoes_a_damaged_unit(out: Path) -> bool:
-    sys.path.insert(0, str(ROOT / "tests"))
+    sys.path.insert(0, str(ROOT / "tests" / "batch"))
     from test_batch import KEYS, _units
 
     from pavement_mcmc.batch import TABLE, run_batch
