@@ -30,6 +30,8 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy import optimize
 
+from .map_steps import expected_roughness, gamma_update, gamma_variance, refine_log
+
 __all__ = ["Laplace", "ScaledResiduals", "find_map", "parameter_scales", "psd_factor",
            "regularised_inverse"]
 
@@ -171,31 +173,6 @@ def parameter_scales(space, idx, theta0) -> np.ndarray:
     return np.array(s)
 
 
-def _gamma_update(space, gname, N, S_eff) -> float:
-    """argmax over gamma of (N-1)/2 log g - g S/2 + log prior(g) (optimised in log g)."""
-    prior = space[gname].prior
-
-    def negf(u):
-        g = np.exp(u)
-        lp = float(np.asarray(prior.logpdf(np.array([g])))[0])
-        return -(0.5 * (N - 1) * u - 0.5 * g * S_eff + lp)
-
-    res = optimize.minimize_scalar(negf, bounds=(np.log(1e-8), np.log(1e8)), method="bounded",
-                                   options={"xatol": 1e-8})
-    return float(np.exp(res.x))
-
-
-def _gamma_var(space, gname, N, S, g) -> float:
-    prior = space[gname].prior
-    eps = 1e-4 * g
-
-    def f(x):
-        return 0.5 * (N - 1) * np.log(x) - 0.5 * x * S + float(np.asarray(prior.logpdf(np.array([x])))[0])
-
-    d2 = (f(g + eps) - 2 * f(g) + f(g - eps)) / eps**2
-    return float(1.0 / max(-d2, 1e-12))
-
-
 def find_map(posterior, theta0: np.ndarray | None = None, *, em_max_iter: int = 30,
              em_tol: float = 1e-2, max_nfev: int = 200, log_positive: bool = True) -> Laplace:
     """MAP by least squares (EM for a free smoothness precision) and the Laplace covariance.
@@ -216,86 +193,122 @@ def find_map(posterior, theta0: np.ndarray | None = None, *, em_max_iter: int = 
     Laplace
     """
     space = posterior.space
-    free = space.free
     theta = np.asarray(space.initial() if theta0 is None else theta0, float).copy()
-    jp = space.smoothness()
-    gname, h_names = (None, None) if jp is None else (jp.gamma_name, list(jp.names))
-    g_free = gname is not None and gname in free
-    gi = free.index(gname) if g_free else None
-    idx = np.array([i for i in range(len(free)) if i != gi], dtype=int)
-    gmrf_cols = None
-    if h_names is not None and all(n in free for n in h_names):
-        pos = {free[i]: j for j, i in enumerate(idx)}
-        gmrf_cols = np.array([pos[n] for n in h_names])
-    gamma = float(theta[gi]) if g_free else (float(space[gname].value) if gname else 0.0)
-    scale = parameter_scales(space, idx, theta)
-    lo, hi = space.bounds()
-    logc = (lo[idx] == 0.0) & (theta[idx] > 0) if log_positive else np.zeros(idx.size, bool)
-    res_fn = ScaledResiduals(posterior, theta, idx, scale, logc)
-    with np.errstate(divide="ignore"):
-        lo_z = np.where(logc, np.log(np.maximum(1e-6 * scale, lo[idx])), lo[idx] / scale)
-        hi_z = np.where(logc, np.log(hi[idx]), hi[idx] / scale)
-    z = np.clip(res_fn.to_z(theta[idx]), lo_z, hi_z)
-    N = len(h_names) if gmrf_cols is not None else 0
-    history = []
-    msg = ""
-    for _ in range(em_max_iter if g_free else 1):
+    w = _Working.of(space, theta, log_positive)
+    res_fn = ScaledResiduals(posterior, theta, w.idx, w.scale, w.logc)
+    z = np.clip(res_fn.to_z(theta[w.idx]), w.lo_z, w.hi_z)
+    z, gamma, msg, history = _em_fit(res_fn, w, z, em_max_iter, em_tol, max_nfev)
+    theta_ls = res_fn.theta(z)[0]
+    if w.logc.any():
+        z = refine_log(res_fn, z, gamma, w.lo_z, w.hi_z)
+    K, B, cov_z, cov, note = _gauss_newton_covariance(res_fn, w, z, gamma)
+    theta_map = res_fn.theta(z)[0]
+    if w.g_free:
+        gi = w.gamma_index
+        theta_map[gi] = gamma
+        hh = theta_map[w.idx[w.gmrf_cols]]
+        cov[gi, gi] = gamma_variance(space, w.gamma_name, w.n_gmrf, float(np.sum(np.diff(hh) ** 2)),
+                                 gamma)
+        theta_ls[gi] = gamma
+    _, blobs = posterior(theta_map[None, :])
+    return Laplace(
+        names=list(space.free), theta=theta_map, cov=cov, idx=w.idx, scale=w.scale, K=K, B=B,
+        gamma_index=w.gamma_index, gamma_hat=gamma, n_gmrf=w.n_gmrf,
+        gmrf_cols=w.gmrf_cols if w.gmrf_cols is not None else np.zeros(0, int),
+        n_evals=res_fn.n_evals + 1, rmse=blobs[0], message=str(msg), history=history,
+        z=z, logc=w.logc, cov_z=cov_z, theta_ls=theta_ls, notes=[note] if note else [],
+    )
+
+
+@dataclass(frozen=True)
+class _Working:
+    """The least-squares fit's layout: which free parameters it fits (``idx``: all but a free
+    smoothness precision ``gamma``), their working scales, which are log-parameterised, the
+    working bounds, where the smoothed h pieces sit, and the starting gamma."""
+
+    idx: np.ndarray
+    gamma_index: int | None
+    gamma_name: str | None
+    gamma0: float
+    gmrf_cols: np.ndarray | None
+    n_gmrf: int
+    scale: np.ndarray
+    logc: np.ndarray
+    lo_z: np.ndarray
+    hi_z: np.ndarray
+
+    @property
+    def g_free(self) -> bool:
+        return self.gamma_index is not None
+
+    @classmethod
+    def of(cls, space, theta: np.ndarray, log_positive: bool) -> _Working:
+        free = space.free
+        jp = space.smoothness()
+        gname, h_names = (None, None) if jp is None else (jp.gamma_name, list(jp.names))
+        g_free = gname is not None and gname in free
+        gi = free.index(gname) if g_free else None
+        idx = np.array([i for i in range(len(free)) if i != gi], dtype=int)
+        gmrf_cols = None
+        if h_names is not None and all(n in free for n in h_names):
+            pos = {free[i]: j for j, i in enumerate(idx)}
+            gmrf_cols = np.array([pos[n] for n in h_names])
+        gamma = float(theta[gi]) if g_free else (float(space[gname].value) if gname else 0.0)
+        scale = parameter_scales(space, idx, theta)
+        lo, hi = space.bounds()
+        logc = (lo[idx] == 0.0) & (theta[idx] > 0) if log_positive else np.zeros(idx.size, bool)
+        with np.errstate(divide="ignore"):
+            lo_z = np.where(logc, np.log(np.maximum(1e-6 * scale, lo[idx])), lo[idx] / scale)
+            hi_z = np.where(logc, np.log(hi[idx]), hi[idx] / scale)
+        N = len(h_names) if gmrf_cols is not None else 0
+        return cls(idx=idx, gamma_index=gi, gamma_name=gname, gamma0=gamma, gmrf_cols=gmrf_cols,
+                   n_gmrf=N, scale=scale, logc=logc, lo_z=lo_z, hi_z=hi_z)
+
+
+def _em_fit(res_fn, w: _Working, z, em_max_iter, em_tol, max_nfev):
+    """Least squares at fixed gamma; with a free gamma, EM: alternate with the gamma update.
+    Returns ``(z, gamma, last message, history of (gamma, new gamma, E|Dh|^2))``."""
+    gamma, history, msg = w.gamma0, [], ""
+    for _ in range(em_max_iter if w.g_free else 1):
         fit = optimize.least_squares(
             lambda v, g=gamma: res_fn(v[None, :], g)[0],
             z,
             jac=lambda v, g=gamma: res_fn.jac(v, g),
-            bounds=(lo_z, hi_z),
+            bounds=(w.lo_z, w.hi_z),
             method="trf",
             x_scale=1.0,
             max_nfev=max_nfev,
         )
         z, msg = fit.x, fit.message
-        if not g_free:
+        if not w.g_free:
             break
-        J = res_fn.jac(z, gamma)
-        Kz = J.T @ J
-        cov_z = np.linalg.pinv(Kz)
-        hz = gmrf_cols
-        sh = res_fn.dtheta_dz(z)[hz]
-        h = res_fn.theta(z)[0, idx[hz]]
-        Sig_h = cov_z[np.ix_(hz, hz)] * np.outer(sh, sh)
-        Dh = np.diff(h)
-        tr = np.trace(Sig_h[1:, 1:] - Sig_h[1:, :-1] - Sig_h[:-1, 1:] + Sig_h[:-1, :-1])
-        S_eff = float(Dh @ Dh + tr)
-        new = _gamma_update(space, gname, N, S_eff)
+        S_eff = expected_roughness(res_fn, w.idx, w.gmrf_cols, z, gamma)
+        new = gamma_update(res_fn.space, w.gamma_name, w.n_gmrf, S_eff)
         history.append((gamma, new, S_eff))
         done = abs(np.log(new / gamma)) < em_tol
         gamma = new
         if done:
             break
-    theta_ls = res_fn.theta(z)[0]
-    if logc.any():
-        z = _refine_log(res_fn, z, gamma, lo_z, hi_z)
+    return z, gamma, msg, history
+
+
+def _gauss_newton_covariance(res_fn, w: _Working, z, gamma):
+    """``(K, B, cov_z, cov, note)`` at ``z``: the Gauss–Newton precision of ``z``, its
+    derivative in gamma, the (regularised) covariance of ``z`` and that of theta by the delta
+    method (the gamma entry is left 0)."""
     J = res_fn.jac(z, gamma)
     K = J.T @ J
-    k = idx.size
+    k = w.idx.size
     dz = res_fn.dtheta_dz(z)
     B = np.zeros((k, k))
-    if gmrf_cols is not None:
-        D = np.diff(np.eye(N), axis=0) * dz[gmrf_cols][None, :]
-        B[np.ix_(gmrf_cols, gmrf_cols)] = D.T @ D
+    if w.gmrf_cols is not None:
+        D = np.diff(np.eye(w.n_gmrf), axis=0) * dz[w.gmrf_cols][None, :]
+        B[np.ix_(w.gmrf_cols, w.gmrf_cols)] = D.T @ D
     cov_z, note = regularised_inverse(K)
-    cov = np.zeros((len(free), len(free)))
-    cov[np.ix_(idx, idx)] = cov_z * np.outer(dz, dz)
-    theta_map = res_fn.theta(z)[0]
-    if g_free:
-        theta_map[gi] = gamma
-        hh = theta_map[idx[gmrf_cols]]
-        cov[gi, gi] = _gamma_var(space, gname, N, float(np.sum(np.diff(hh) ** 2)), gamma)
-        theta_ls[gi] = gamma
-    _, blobs = posterior(theta_map[None, :])
-    return Laplace(
-        names=list(free), theta=theta_map, cov=cov, idx=idx, scale=scale, K=K, B=B,
-        gamma_index=gi, gamma_hat=gamma, n_gmrf=N,
-        gmrf_cols=gmrf_cols if gmrf_cols is not None else np.zeros(0, int),
-        n_evals=res_fn.n_evals + 1, rmse=blobs[0], message=str(msg), history=history,
-        z=z, logc=logc, cov_z=cov_z, theta_ls=theta_ls, notes=[note] if note else [],
-    )
+    n_free = len(res_fn.space.free)
+    cov = np.zeros((n_free, n_free))
+    cov[np.ix_(w.idx, w.idx)] = cov_z * np.outer(dz, dz)
+    return K, B, cov_z, cov, note
 
 
 #: eigenvalues of a Laplace precision below this fraction of the largest are raised to it
@@ -331,39 +344,3 @@ def psd_factor(cov: np.ndarray) -> np.ndarray:
     except np.linalg.LinAlgError:
         w, V = np.linalg.eigh(0.5 * (cov + cov.T))
         return V * np.sqrt(np.maximum(w, 0.0))
-
-
-def _refine_log(res_fn, z, gamma, lo_z, hi_z, max_iter: int = 60):
-    """Damped Gauss–Newton on ``F(z) = |r|^2/2 - sum_{log} z`` (the mode in log coordinates,
-    where the Jacobian of ``theta = exp(z)`` adds ``-z`` per log-transformed parameter)."""
-    e = res_fn.logc.astype(float)
-
-    def F(v):
-        r = res_fn(v[None, :], gamma)[0]
-        return 0.5 * r @ r - e @ v, r
-
-    f, r = F(z)
-    lam = 1e-3
-    for _ in range(max_iter):
-        J = res_fn.jac(z, gamma)
-        g = J.T @ r - e
-        H = J.T @ J
-        dH = np.diag(H).copy()
-        improved = False
-        for _ in range(12):
-            step = np.linalg.solve(H + lam * np.diag(dH + 1.0), -g)
-            step *= min(1.0, 1.0 / max(np.max(np.abs(step)), 1e-300))  # at most e-fold per step
-            zn = np.clip(z + step, lo_z, hi_z)
-            fn, rn = F(zn)
-            if np.isfinite(fn) and fn < f:
-                improved = True
-                break
-            lam *= 10
-        if not improved:
-            break
-        conv = f - fn < 1e-10 * max(1.0, abs(f))
-        z, f, r = zn, fn, rn
-        lam = max(lam / 10, 1e-12)
-        if conv or np.max(np.abs(step)) < 1e-9:
-            break
-    return z

@@ -136,14 +136,10 @@ def run_sampler(
 
     ``rule`` defaults to :class:`~pavement_mcmc.diagnostics.StoppingRule`'s defaults;
     ``ess_target``, ``min_tau_lengths`` and ``rhat_max`` replace its thresholds when given.
-
-    The sampler must be prepared (fresh run, ``store`` empty) or restored with
-    :meth:`Sampler.set_state` from ``store.state`` (resume; the rows already in ``store`` are
-    read back for the diagnostics). ``burn_in`` and ``n_adapt`` are in steps; the adaptation
-    length defaults to the sampler's :meth:`~pavement_mcmc.samplers.Sampler.adapt_length` (or to
-    ``burn_in`` when given). Steps are
-    stored every ``thin``-th step. The run does not stop on convergence before ``min_steps``
-    (a resume asked for more steps). Returns a :class:`RunResult`.
+    The sampler is prepared (``store`` empty) or restored from ``store.state`` (resume: the
+    stored rows are read back). ``burn_in`` and ``n_adapt`` are in steps (adaptation defaults
+    to the sampler's ``adapt_length``, or ``burn_in``); every ``thin``-th step is stored; no
+    stop on convergence before ``min_steps``. Returns a :class:`RunResult`.
     """
     t0 = time.perf_counter()
     rule = (rule or StoppingRule()).with_overrides(

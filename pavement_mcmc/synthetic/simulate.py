@@ -5,24 +5,21 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy.interpolate import PchipInterpolator
 
 from ..data.times import hour_of_day, times_after
 from .column import KELVIN, STEFAN_BOLTZMANN, conductive_flux, march
 from .effects import DEFAULT_RAIN, resolve_effects
+from .forcing import Clock, Forcing, forcing_at_levels, ground_sinks
 from .ground import build_ground
-from .processes import (
-    first_order_lag,
-    priestley_taylor_factor,
-    rain_latent_flux,
-    rain_per_row,
-    shade_multiplier,
+from .outputs import (
+    plate_columns,
+    recorded_forcing,
+    recorded_temperatures,
+    sensor_readings,
+    sensor_temperatures,
 )
-from .weather import HOUR, make_weather
-
-PT_FACTOR_MAX = 0.95
-"""Largest Priestley-Taylor factor alpha s/(s + gamma) the lagged ET closure accepts (it relaxes
-with this ratio per solver step; at 1 it would not converge)."""
+from .processes import rain_per_row
+from .weather import make_weather
 
 PAPER_H_KNOTS = (16.67, 6.43, 10.29, 14.33, 12.92)
 """The paper's Case C h estimates (W m-2 K-1), placed evenly over the window (0, 7, ... 28 h)."""
@@ -237,171 +234,83 @@ def simulate(spec: SyntheticSpec) -> tuple[dict[str, np.ndarray], Truth]:
     seq = np.random.SeedSequence(spec.seed)
     rng_weather, rng_noise, rng_rows = (np.random.default_rng(s) for s in seq.spawn(3))
     rng_plates = np.random.default_rng(seq.spawn(1)[0])  # the 4th child: the first 3 unchanged
-
-    # time levels: rows every `step`, solver steps of dt dividing it, spin-up whole rows
-    step = spec.step_minutes * 60.0
-    substeps = int(np.ceil(step / dt_target - 1e-9))
-    dt = step / substeps
-    n_rows = int(round(spec.hours * HOUR / step)) + 1
-    n_spin = int(round(spec.spinup_hours * HOUR / step))
-    t_levels = (np.arange((n_spin + n_rows - 1) * substeps + 1) - n_spin * substeps) * dt
-    t_rows_all = (np.arange(n_rows)) * step
-
+    clock = Clock.of(spec, dt_target)
     rain_events = spec.rain if spec.rain is not None else (DEFAULT_RAIN if "evaporation" in effects else ())
     start_hour = float(hour_of_day(spec.time0, 0.0))
-    events = tuple(rain_events)
-    weather = make_weather(rng_weather, t_levels[0], t_levels[-1], events, start_hour, spec.climate)
-
+    weather = make_weather(rng_weather, clock.t_levels[0], clock.t_levels[-1], tuple(rain_events),
+                           start_hour, spec.climate)
     # rows kept (irregular sampling) and their rain, accumulated over dropped rows
-    keep = rng_rows.random(n_rows) >= spec.drop_fraction
+    keep = rng_rows.random(clock.n_rows) >= spec.drop_fraction
     keep[0] = keep[-1] = True
-    rain_all = rain_per_row(tuple(rain_events), t_rows_all, spec.hours)
-    rain = np.diff(np.cumsum(rain_all)[keep], prepend=0.0)
-    rain = np.round(rain, 1)
-    t_rows = t_rows_all[keep]
+    rain_all = rain_per_row(tuple(rain_events), clock.t_rows_all, spec.hours)
+    rain = np.round(np.diff(np.cumsum(rain_all)[keep], prepend=0.0), 1)
+    t_rows = clock.t_rows_all[keep]
 
-    # forcing at every time level
-    if spec.forcing == "smooth":
+    fo = forcing_at_levels(spec, effects, weather, clock, start_hour)
+    q_evap_rows, q_sink, pt_factor = ground_sinks(effects, t_rows, rain, clock.t_levels, fo.T_air)
+    ground, run = _march_ground(spec, effects, depths, bottom, dz, weather, clock, fo, q_sink,
+                                pt_factor)
+    profiles = run.profiles[clock.n_spin:][keep]
+    z, true_depths = ground.z, ground.sensor_z
+    T_clean = sensor_temperatures(z, true_depths, profiles)
+    lv = ((np.arange(clock.n_rows) + clock.n_spin) * clock.substeps)[keep]
+    emitted = fo.e_rad * STEFAN_BOLTZMANN * (profiles[:, 0] + KELVIN) ** 4
+    q_ground = fo.q_abs[lv] - emitted
 
-        def at_levels(fun):
-            return fun(t_levels)
-    elif spec.forcing == "linear":  # sampled at every row (spin-up too), linear in between
-        t_knots = t_levels[::substeps]
+    # noise: drawn for every regular row, so dropping rows or adding effects leaves it unchanged
+    noise = rng_noise.standard_normal((clock.n_rows, true_depths.size + 3))[keep]
+    t_all = (np.arange(clock.n_spin + clock.n_rows) - clock.n_spin) * clock.step
+    reading = sensor_readings(spec, effects, T_clean, z, true_depths, run.profiles, t_all,
+                              clock.n_spin, keep, fo.sw[lv])
+    recorded = recorded_temperatures(spec, effects, reading, noise)
+    T_air_rec, q_rec = recorded_forcing(spec, fo.T_air[lv], (fo.q_open[lv] - emitted) / fo.f,
+                                        noise)
+    columns: dict[str, np.ndarray] = {
+        "time": _iso_times(spec.time0, t_rows),
+        "T_air": T_air_rec,
+        "q_net": q_rec,
+        "wind": np.round(fo.wind[lv], 2),
+        "rain": rain,
+    }
+    for name, values in zip(temperature_columns(spec), recorded.T, strict=True):
+        columns[name] = values
+    flux = conductive_flux(ground.column, profiles, ground.plate_z, ground.beta)
+    plates, flux_true = plate_columns(spec, flux_columns(spec), flux, rng_plates, clock.n_rows, keep)
+    columns.update(plates)
 
-        def at_levels(fun):
-            return np.interp(t_levels, t_knots, fun(t_knots))
-    else:
-        raise ValueError(f"forcing={spec.forcing!r}; valid: 'smooth', 'linear'")
-    T_air = at_levels(weather.air_temperature)
-    wind = at_levels(weather.wind)
-    sw, lw = at_levels(weather.shortwave_absorbed), at_levels(weather.longwave_down)
-    if "wind_convection" in effects:
-        h = effects["wind_convection"]["h_a"] + effects["wind_convection"]["h_b"] * wind
-    else:
-        knots_t = np.linspace(0.0, spec.hours * HOUR, len(spec.h_knots))
-        spline = PchipInterpolator(knots_t, spec.h_knots)
-        h = at_levels(lambda t: spline(np.clip(t, 0.0, knots_t[-1])))  # h(0) in the spin-up
-    f = effects.get("radiation_factor", {}).get("rad_factor", 1.0)
-    sw_ground = sw  # what reaches the ground; the radiometer sees `sw`
-    if "shading" in effects:
-        p = effects["shading"]
-        shade = shade_multiplier(t_levels, start_hour, p["shade_start"], p["shade_end"], p["shade_fraction"])
-        sw_ground = sw * shade
-    eps_sigma = spec.emissivity * STEFAN_BOLTZMANN
-    if spec.emission:
-        q_abs, q_open, e_rad = f * (sw_ground + lw), f * (sw + lw), f * spec.emissivity
-    else:
-        q_abs = f * (sw_ground + lw - eps_sigma * (T_air + KELVIN) ** 4)
-        q_open, e_rad = f * (sw + lw - eps_sigma * (T_air + KELVIN) ** 4), 0.0
-    q_evap_rows = np.zeros(t_rows.size)
-    if "evaporation" in effects:
-        if not rain.any():
-            raise ValueError("the evaporation effect needs rain inside the recorded window")
-        p = effects["evaporation"]
-        q_evap_rows = rain_latent_flux(t_rows, rain, p["evap_A"], p["evap_tau"])
-    q_sink = np.interp(t_levels, t_rows, q_evap_rows, left=0.0)
-    pt_factor = None
-    if "evapotranspiration" in effects:
-        pt_factor = priestley_taylor_factor(T_air, effects["evapotranspiration"]["et_alpha"])
-        if pt_factor.max() >= PT_FACTOR_MAX:
-            raise ValueError(
-                f"effect 'evapotranspiration': et_alpha s/(s + gamma) reaches {pt_factor.max():.3f} "
-                f"at T_air = {T_air.max():.1f} degC; the lagged closure needs < {PT_FACTOR_MAX}"
-            )
+    truth = Truth(
+        kappa=spec.kappa, C=spec.C, sigma=spec.sigma, h_obs=fo.h[lv], effects=effects, t=t_rows,
+        T_clean=T_clean, z=z, T_initial=profiles[0].copy(), q_ground=q_ground, q_evap=q_evap_rows,
+        noise_rms=float(np.sqrt(np.mean((spec.sigma * noise[:, : depths.size]) ** 2))),
+        seed=spec.seed, q_et=run.latent[lv], flux=flux_true, profiles=profiles,
+        soil_top=ground.soil_top, dz=dz, dt=clock.dt,
+    )
+    return columns, truth
 
-    # the ground: optional thatch on one or two soil layers; nominal depths from the soil surface
+
+def _march_ground(spec, effects, depths, bottom, dz, weather, clock: Clock, fo: Forcing,
+                  q_sink, pt_factor):
+    """The ground (optional thatch on one or two soil layers; nominal depths from the soil
+    surface) and its march from a uniform ``T_deep`` over spin-up and window."""
     plates = np.asarray(spec.flux_depths_cm, float) / 100.0
     ground = build_ground(spec.kappa, spec.C, effects, depths, bottom, spec.column_cm / 100.0, dz, plates)
-    z, true_depths = ground.z, ground.sensor_z
     T_deep = spec.T_deep
     if T_deep is None:
         T_deep = weather.params["T_mean"] + weather.params["T_deep_offset"]
     run = march(
         ground.column,
-        np.full(z.size, T_deep),
-        dt,
-        T_air,
-        h,
-        q_abs,
+        np.full(ground.z.size, T_deep),
+        clock.dt,
+        fo.T_air,
+        fo.h,
+        fo.q_abs,
         q_sink,
-        np.full(t_levels.size, T_deep),
-        emissivity=e_rad,
+        np.full(clock.t_levels.size, T_deep),
+        emissivity=fo.e_rad,
         beta=ground.beta,
-        record_every=substeps,
+        record_every=clock.substeps,
         source=ground.source,
         pt_factor=pt_factor,
         et_ground=spec.et_available == "net_minus_ground",
     )
-    profiles = run.profiles[n_spin:][keep]
-
-    # sensors: linear interpolation between fine nodes at the true depths
-    T_clean = np.array([np.interp(true_depths, z, prof) for prof in profiles])
-    row_levels = (np.arange(n_rows) + n_spin) * substeps
-    lv = row_levels[keep]
-    emitted = e_rad * STEFAN_BOLTZMANN * (profiles[:, 0] + KELVIN) ** 4
-    q_ground = q_abs[lv] - emitted
-    q_rec = (q_open[lv] - emitted) / f
-    T_air_rec = T_air[lv].copy()
-
-    # noise: drawn for every regular row, so dropping rows or adding effects leaves it unchanged
-    noise = rng_noise.standard_normal((n_rows, true_depths.size + 3))[keep]
-    reading = T_clean
-    if "sensor_lag" in effects:  # lag over the spin-up rows too, then the kept rows
-        p = effects["sensor_lag"]
-        k = int(np.argmin(np.abs(np.asarray(spec.depths_cm, float) - p["lag_sensor_cm"])))
-        t_all = (np.arange(n_spin + n_rows) - n_spin) * step
-        T_k = np.array([np.interp(true_depths[k], z, r) for r in run.profiles])
-        reading = T_clean.copy()
-        reading[:, k] = first_order_lag(t_all, T_k, p["lag_minutes"] * 60.0)[n_spin:][keep]
-    if "sensor_sun" in effects:  # a sensor in the sun reads warm by day
-        k = list(spec.depths_cm).index(effects["sensor_sun"]["sun_sensor_cm"])
-        reading = reading.copy()
-        reading[:, k] += effects["sensor_sun"]["sun_gain"] * sw[lv] / 1000.0
-    recorded = reading + spec.sigma * noise[:, : true_depths.size]
-    if "sensor_bias" in effects:
-        recorded[:, : depths.size] += np.array(list(effects["sensor_bias"].values()))
-    if spec.forcing_noise:
-        T_air_rec += 0.05 * noise[:, -3]
-        q_rec = q_rec * (1.0 + 0.01 * noise[:, -2]) + 2.0 * noise[:, -1]
-
-    columns: dict[str, np.ndarray] = {
-        "time": _iso_times(spec.time0, t_rows),
-        "T_air": T_air_rec,
-        "q_net": q_rec,
-        "wind": np.round(wind[lv], 2),
-        "rain": rain,
-    }
-    for name, values in zip(temperature_columns(spec), recorded.T, strict=True):
-        columns[name] = values
-
-    # heat-flux plates: true conductive flux, calibration factor, noise from their own stream
-    flux = conductive_flux(ground.column, profiles, ground.plate_z, ground.beta)
-    plate_noise = rng_plates.standard_normal((n_rows, 2 * plates.size))[keep]
-    flux_true = {}
-    for j, name in enumerate(flux_columns(spec)):
-        flux_true[name] = flux[:, j]
-        gain = spec.plate_factor * (1.0 + spec.plate_rel_noise * plate_noise[:, 2 * j])
-        columns[name] = gain * flux[:, j] + spec.plate_abs_noise * plate_noise[:, 2 * j + 1]
-
-    truth = Truth(
-        kappa=spec.kappa,
-        C=spec.C,
-        sigma=spec.sigma,
-        h_obs=h[lv],
-        effects=effects,
-        t=t_rows,
-        T_clean=T_clean,
-        z=z,
-        T_initial=profiles[0].copy(),
-        q_ground=q_ground,
-        q_evap=q_evap_rows,
-        noise_rms=float(np.sqrt(np.mean((spec.sigma * noise[:, : depths.size]) ** 2))),
-        seed=spec.seed,
-        q_et=run.latent[lv],
-        flux=flux_true,
-        profiles=profiles,
-        soil_top=ground.soil_top,
-        dz=dz,
-        dt=dt,
-    )
-    return columns, truth
+    return ground, run

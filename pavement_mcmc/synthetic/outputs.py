@@ -1,0 +1,68 @@
+"""What a twin's instruments record from the simulated ground: sensor temperatures (with a
+sensor's lag, sun gain and bias), their noise, the forcing's instrument noise and the heat-flux
+plates' readings. Used by :func:`~pavement_mcmc.synthetic.simulate.simulate`."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .processes import first_order_lag
+
+
+def sensor_temperatures(z: np.ndarray, true_depths: np.ndarray, profiles: np.ndarray) -> np.ndarray:
+    """(n_rows, n_sensors) temperatures at the sensors' true depths: linear interpolation between
+    the fine nodes ``z`` of each row's profile, degC."""
+    return np.array([np.interp(true_depths, z, prof) for prof in profiles])
+
+
+def sensor_readings(spec, effects: dict, T_clean: np.ndarray, z: np.ndarray,
+                    true_depths: np.ndarray, all_profiles: np.ndarray, t_all: np.ndarray,
+                    n_spin: int, keep: np.ndarray, sw_rows: np.ndarray) -> np.ndarray:
+    """Noise-free readings: ``T_clean`` with a lagging sensor (``sensor_lag``: the lag runs over
+    the spin-up rows ``t_all`` / ``all_profiles`` too, then the kept rows) and a sensor warmed by
+    the shortwave ``sw_rows`` (``sensor_sun``)."""
+    reading = T_clean
+    if "sensor_lag" in effects:  # lag over the spin-up rows too, then the kept rows
+        p = effects["sensor_lag"]
+        k = int(np.argmin(np.abs(np.asarray(spec.depths_cm, float) - p["lag_sensor_cm"])))
+        T_k = np.array([np.interp(true_depths[k], z, r) for r in all_profiles])
+        reading = T_clean.copy()
+        reading[:, k] = first_order_lag(t_all, T_k, p["lag_minutes"] * 60.0)[n_spin:][keep]
+    if "sensor_sun" in effects:  # a sensor in the sun reads warm by day
+        k = list(spec.depths_cm).index(effects["sensor_sun"]["sun_sensor_cm"])
+        reading = reading.copy()
+        reading[:, k] += effects["sensor_sun"]["sun_gain"] * sw_rows / 1000.0
+    return reading
+
+
+def recorded_temperatures(spec, effects: dict, reading: np.ndarray, noise: np.ndarray) -> np.ndarray:
+    """Readings plus ``spec.sigma`` x the first ``noise`` columns, then each observed sensor's
+    bias (``sensor_bias``)."""
+    n = reading.shape[1]
+    recorded = reading + spec.sigma * noise[:, :n]
+    if "sensor_bias" in effects:
+        recorded[:, : len(spec.depths_cm)] += np.array(list(effects["sensor_bias"].values()))
+    return recorded
+
+
+def recorded_forcing(spec, T_air: np.ndarray, q_net: np.ndarray, noise: np.ndarray):
+    """``(T_air, q_net)`` as recorded: with ``spec.forcing_noise``, 0.05 degC on T_air and
+    1 % + 2 W m-2 on q_net from the last three ``noise`` columns."""
+    if spec.forcing_noise:
+        T_air = T_air + 0.05 * noise[:, -3]
+        q_net = q_net * (1.0 + 0.01 * noise[:, -2]) + 2.0 * noise[:, -1]
+    return T_air, q_net
+
+
+def plate_columns(spec, names: list[str], flux: np.ndarray, rng: np.random.Generator,
+                  n_rows: int, keep: np.ndarray) -> tuple[dict, dict]:
+    """``(readings, true flux)`` by plate column name: the true conductive flux ``flux[:, j]``
+    times the calibration factor and ``1 + plate_rel_noise N1``, plus ``plate_abs_noise N2``
+    (drawn for every regular row from ``rng``, so dropped rows leave the others unchanged)."""
+    plate_noise = rng.standard_normal((n_rows, 2 * len(names)))[keep]
+    readings, flux_true = {}, {}
+    for j, name in enumerate(names):
+        flux_true[name] = flux[:, j]
+        gain = spec.plate_factor * (1.0 + spec.plate_rel_noise * plate_noise[:, 2 * j])
+        readings[name] = gain * flux[:, j] + spec.plate_abs_noise * plate_noise[:, 2 * j + 1]
+    return readings, flux_true
