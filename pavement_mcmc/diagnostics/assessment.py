@@ -165,7 +165,8 @@ def chains_note(sampler: str, rule: StoppingRule | None = None) -> str:
         return ("emcee walkers are not independent chains (each move uses the other walkers), "
                 "so ESS and split-R-hat across walkers are optimistic; the IACT check (chain "
                 f">= {n:g} IACT) is the primary one.")
-    return (f"the {sampler or 'sampler'}'s chains are independent Markov chains, so split-R-hat "
+    who = f"the {sampler} sampler's" if sampler else "the sampler's"
+    return (f"{who} chains are independent Markov chains, so split-R-hat "
             f"across them compares independent runs; the IACT check (chain >= {n:g} IACT) still "
             "applies to each.")
 
