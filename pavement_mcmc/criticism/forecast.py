@@ -36,6 +36,9 @@ from ..parameters import ParameterSpace
 from ..physics import Model
 from ..physics.hbasis import HBasis
 from ..posterior import LogPosterior, Problem
+from ..posterior.logpost import default_streams
+from ..posterior.observations import with_parameters
+from ..posterior.surface_ir import SurfaceIR
 from .fitting import Fit, refit
 from .residuals import pooled_lag1
 
@@ -125,11 +128,15 @@ def training_problem(problem, n_train: int) -> Problem:
     grid = replace(m.grid, t_obs=m.grid.t_obs[: n_train + 1], substeps=m.grid.substeps[:n_train])
     model = Model(meas, grid, _training_basis(m.h_basis, meas.t), m.extensions, scheme=m.scheme,
                   gamma0=m.gamma0, plates=m.plates)
-    defaults = model.parameter_space()
+    flux_sd = None if problem.posterior.flux_sd is None else problem.posterior.flux_sd[:n_train]
+    streams = default_streams(model, flux_sd)
+    ir = problem.posterior.stream("surface_ir")
+    if ir is not None:  # the run's IR stream on the training rows, with its ir_offset
+        streams.append(SurfaceIR(meas, ir.sigma))
+    defaults = with_parameters(model.parameter_space(), streams)
     params = [problem.space[n] if n in problem.space else p for n, p in defaults.params.items()]
     space = ParameterSpace(params, defaults.joint_priors)
-    flux_sd = None if problem.posterior.flux_sd is None else problem.posterior.flux_sd[:n_train]
-    post = LogPosterior(model, space, flux_sd)
+    post = LogPosterior(model, space, streams=streams)
     noise = problem.posterior.input_noise
     if noise is not None:
         rows = np.zeros((problem.meas.n_obs - 1, problem.meas.n_sensors), bool)

@@ -75,3 +75,18 @@ def test_fit_recovers_the_ir_offset(tmp_path):
     fixed = build_problem(load_case(_twin(tmp_path), {"parameters": {"ir_offset": {"vary": False}}}))
     lap0 = find_map(fixed.posterior)
     assert fixed.posterior.loglik_blobs(lap0.theta[None])[1][0, -1] > 3 * rmse_ir
+
+
+def test_the_forecasts_training_refit_keeps_the_ir_stream(tmp_path):
+    """The forecast refits the start of the window with the run's own likelihood: the IR stream
+    (restricted to the training rows) and its ir_offset stay in it, and its MAP finds the offset."""
+    from pavement_mcmc.criticism.forecast import training_problem
+
+    pb = build_problem(load_case(_twin(tmp_path)))
+    n_train = 36  # 9 of the 12 h
+    tr = training_problem(pb, n_train)
+    ir = tr.posterior.stream("surface_ir")
+    assert ir is not None and "ir_offset" in tr.space.free
+    assert ir.data.shape[0] == n_train
+    lap = find_map(tr.posterior)
+    assert dict(zip(tr.space.free, lap.theta, strict=True))["ir_offset"] == pytest.approx(OFFSET, abs=0.2)
