@@ -32,11 +32,13 @@ from .integrity import (
     StoreWriteFailed,
     close_after_failure,
     creation_failed,
+    first_line,
     full_digest,
     hdf5_end_of_file,
     human_bytes,
     neutralise,
     system_reason,
+    truncation,
     unreadable,
 )
 from .records import RunData, RunState, _dumps, _loads
@@ -318,7 +320,7 @@ class HDF5Store(Store):
         try:
             return self._ds(name)[sel]
         except Exception as err:
-            first = str(err).splitlines()[0] if str(err) else type(err).__name__
+            first = first_line(err)
             if "filter returned failure" in first:
                 first = "a block fails its fletcher32 checksum"
             raise OSError(f"{name}: {first}") from err
@@ -345,9 +347,8 @@ class HDF5Store(Store):
         )
 
     def _damaged(self, what: str) -> StoreDamaged:
-        eof, size = hdf5_end_of_file(self.path), os.path.getsize(self.path)
-        cut = f"it is truncated ({size} of {eof} bytes); " if eof is not None and size < eof else ""
-        return StoreDamaged(f"{self.path} is damaged: {cut}{what}; it is not read")
+        cut = truncation(self.path)
+        return StoreDamaged(f"{self.path} is damaged: {cut + '; ' if cut else ''}{what}; it is not read")
 
     def _write_rows(self, start, chain, log_prob, blobs, accepted) -> None:
         stop = start + len(chain)

@@ -92,7 +92,18 @@ def system_reason(err: BaseException) -> str:
         m = re.search(r"errno\s*=\s*(\d+)", str(e))
         if m and int(m.group(1)):
             return f"{os.strerror(int(m.group(1)))} (errno {m.group(1)})"
+    return first_line(err)
+
+
+def first_line(err: BaseException) -> str:
+    """The first line of an error's message (its type's name if it has none)."""
     return str(err).splitlines()[0] if str(err) else type(err).__name__
+
+
+def truncation(path: str) -> str | None:
+    """``"it is truncated (size of end bytes)"`` if the file is shorter than HDF5's recorded end."""
+    eof, size = hdf5_end_of_file(path), os.path.getsize(path) if os.path.exists(path) else 0
+    return f"it is truncated ({size} of {eof} bytes)" if eof is not None and size < eof else None
 
 
 def hdf5_end_of_file(path: str) -> int | None:
@@ -157,8 +168,5 @@ def creation_failed(path: str, err: BaseException) -> BaseException:
 
 def unreadable(path: str, err: BaseException, what: str = "HDF5 cannot read it") -> StoreDamaged:
     """A damaged file's error: what HDF5 said, and whether the file was cut short."""
-    eof, size = hdf5_end_of_file(path), os.path.getsize(path) if os.path.exists(path) else 0
-    cut = (f"it is truncated ({size} of {eof} bytes)" if eof is not None and size < eof
-           else what)
-    first = str(err).splitlines()[0] if str(err) else type(err).__name__
-    return StoreDamaged(f"{path} is damaged: {cut} ({first}); it is not read")
+    return StoreDamaged(f"{path} is damaged: {truncation(path) or what} ({first_line(err)}); "
+                        "it is not read")
