@@ -83,6 +83,16 @@ class Extension:
         """Return the predicted sensor temperatures, possibly changed."""
         return pred
 
+    def skin(self, T: np.ndarray, G: np.ndarray, p: dict[str, np.ndarray], model) -> np.ndarray:
+        """The skin temperature (n_sets, n_obs) above ``T`` (the soil top, or the skin of an
+        earlier layer) given the flux into the ground ``G``: what an infrared thermometer
+        reads (:mod:`pavement_mcmc.physics.skin`). Override together with ``skin_vjp``."""
+        return T
+
+    skin_vjp = None
+    """``skin_vjp(g, T, G, p, model) -> (g_T, g_G, {name: (n_sets,)})``: the cotangents of
+    ``T`` and ``G`` and the gradients of the effect's parameters, given ``g`` of the skin."""
+
     # Gradients (optional). The material and surface hooks need nothing more: the model
     # differentiates the coefficients they produce with respect to the effect's parameters
     # (and to ``reads``) by finite differences, which costs no solve. An ``observe`` hook needs

@@ -205,7 +205,8 @@ class Model:
 
         ``cotangent_fn(T_nodes, coeffs) -> (G, direct)`` gives d loss / d T_nodes (same shape)
         and ``direct``, the loss's own derivatives: ``{"kappa": (n_sets, n_cells)}`` for the
-        cell conductivities it reads (flux observations) and ``{name: (n_sets,)}`` for
+        cell conductivities it reads (flux observations), ``"h"``/``"q"`` for the final surface
+        coefficients (a skin temperature, :mod:`.skin`) and ``{name: (n_sets,)}`` for
         parameters. Returns ``(T_nodes, names, grad)``, ``grad`` (n_sets, len(names)) with
         respect to every parameter the model has, by the solver's discrete adjoint (about the
         cost of three solves); extensions' coefficients are differentiated by finite
@@ -224,8 +225,9 @@ class Model:
 
         out, g = solve_vjp(self.grid, self.forcing, coeffs, cot)
         g = dict(g)
-        if "kappa" in direct:
-            g["kappa"] = g["kappa"] + direct.pop("kappa")
+        for k in ("kappa", "h", "q"):  # a loss that reads the final coefficients (a skin)
+            if k in direct:
+                g[k] = g[k] + direct.pop(k)
         grads: dict[str, np.ndarray] = {}
         g_final = dict(g)  # the finite differences below act on the final coefficients
         for ext in reversed(self.extensions):  # back through the surface hooks that say how

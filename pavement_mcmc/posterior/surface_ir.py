@@ -2,15 +2,22 @@ r"""The infrared surface temperature as an observation stream (``T_surf_IR``, de
 
 An infrared thermometer (or a pyrgeometer's upwelling long-wave, :math:`T = (L_\uparrow /
 \varepsilon\sigma_{SB})^{1/4}`) reads the radiometric temperature of the surface. The model's
-surface temperature is its top node (``x = 0``, where the surface energy balance acts), so
+surface temperature is its skin (:mod:`pavement_mcmc.physics.skin`): the top node where the
+surface energy balance acts on the soil, or the canopy skin above a ``surface_layer``
+(:math:`T_0 + R\,G`), so
 
-.. math:: T_\mathrm{IR}(t) = T_s(t) + \delta + e(t),\qquad e \sim N(0, \sigma_\mathrm{IR}^2),
+.. math:: T_\mathrm{IR}(t) = f\,T_k(t) + (1 - f)\,T_a(t) + \delta + e(t),\qquad
+          e \sim N(0, \sigma_\mathrm{IR}^2),
 
 with :math:`\delta` = ``ir_offset`` (degC), a nuisance parameter with a Gaussian prior of sd
 :data:`OFFSET_SD`: an emissivity error :math:`\Delta\varepsilon` shifts a radiometric
 temperature by about :math:`-T\,\Delta\varepsilon / 4\varepsilon` (0.7 K per 0.01 near 290 K),
 and a canopy's skin is not the soil's top. Its value and bounds can be set in
-``[parameters.ir_offset]`` (``vary = false`` fixes it).
+``[parameters.ir_offset]`` (``vary = false`` fixes it). :math:`f` = ``ir_view`` is the fraction
+of the thermometer's footprint that is the modelled surface (bare soil between desert shrubs,
+a sparse crop): the rest (leaves near air temperature) reads :math:`T_a`. It is fixed at 1
+(a closed surface) unless ``[parameters.ir_view] vary = true``; prior N(1, 0.3) on 0.1-1.5
+(above 1: an emissivity error that scales the contrast with the air).
 
 Column convention: ``T_surf_IR`` in the case CSV or in the ``[data] extras`` CSV
 (:mod:`pavement_mcmc.data.extras`); switched on by ``[data] ir_sigma`` (the sd of one reading,
@@ -22,6 +29,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..parameters import Parameter
+from ..physics.skin import skin_temperature, skin_vjp
 from ..parameters.priors import TruncatedNormal
 from .observations import Observation
 
@@ -34,7 +42,7 @@ OFFSET_SD = 2.0
 
 
 class SurfaceIR(Observation):
-    """The infrared surface temperature: the model's top node plus ``ir_offset``, sd ``sigma``."""
+    """The infrared surface temperature: the model's skin plus ``ir_offset``, sd ``sigma``."""
 
     name = "surface_ir"
     labels = ["IR"]
@@ -59,10 +67,17 @@ class SurfaceIR(Observation):
     def parameters(self) -> list:
         return [Parameter("ir_offset", 0.0, -20.0, 20.0,
                           prior=TruncatedNormal(0.0, OFFSET_SD, -20.0, 20.0), unit="degC",
-                          description="infrared surface temperature minus the model's surface")]
+                          description="infrared surface temperature minus the model's surface"),
+                Parameter("ir_view", 1.0, 0.1, 1.5, prior=TruncatedNormal(1.0, 0.3, 0.1, 1.5),
+                          unit="-", vary=False,
+                          description="fraction of the IR footprint that is the modelled surface "
+                                      "(the rest at air temperature)")]
 
     def predict(self, model, T_nodes, coeffs, p):
-        return T_nodes[..., :1] + np.asarray(p["ir_offset"], float)[:, None, None]
+        T = skin_temperature(model, T_nodes, coeffs, p)
+        f = np.asarray(p["ir_view"], float)[:, None]
+        Ta = model.forcing.T_air[None, :]
+        return (Ta + f * (T - Ta))[..., None] + np.asarray(p["ir_offset"], float)[:, None, None]
 
     def whiten(self, r):
         return r.reshape(*r.shape[:-2], -1) / self.sigma
@@ -77,5 +92,11 @@ class SurfaceIR(Observation):
     def vjp(self, model, pred, r, z, ok, T_nodes, coeffs, p, gT):
         g = -np.where(ok[:, None, None], r, 0.0)[..., 0] / self.sigma**2  # (n_sets, n_obs - 1)
         gT = np.zeros(T_nodes.shape) if gT is None else gT
-        gT[:, 1:, 0] += g
-        return gT, {"ir_offset": np.sum(g, axis=1)}
+        g_skin = np.concatenate([np.zeros((g.shape[0], 1)), g], axis=1)
+        f = np.asarray(p["ir_view"], float)[:, None]
+        T = skin_temperature(model, T_nodes, coeffs, p)
+        g_top, direct = skin_vjp(model, f * g_skin, T_nodes, coeffs, p)
+        gT[..., 0] += g_top
+        direct["ir_offset"] = np.sum(g, axis=1)
+        direct["ir_view"] = np.sum(g_skin * (T - model.forcing.T_air[None, :]), axis=1)
+        return gT, direct

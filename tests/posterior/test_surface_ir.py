@@ -16,7 +16,7 @@ from pavement_mcmc.synthetic.io import write_case
 OFFSET, IR_SD = 1.5, 0.2
 
 
-def _twin(tmp_path: Path, plates: tuple = ()) -> Path:
+def _twin(tmp_path: Path, plates: tuple = (), model: str = 'h = { kind = "uniform", n = 4 }\n') -> Path:
     """A 12-h twin (no hidden effect) and its extras.csv: T_surf_IR = the simulated surface
     temperature (the top node of the simulator's fine column) + OFFSET + N(0, IR_SD)."""
     spec = SyntheticSpec(hours=12, step_minutes=15, seed=3, flux_depths_cm=plates)
@@ -29,7 +29,7 @@ def _twin(tmp_path: Path, plates: tuple = ()) -> Path:
     toml = tmp_path / "case.toml"
     toml.write_text(f'[data]\ncsv = "measurements.csv"\nsigma = {spec.sigma}\n'
                     f'extras = "extras.csv"\nir_sigma = {IR_SD}\n'
-                    '[model]\nh = { kind = "uniform", n = 4 }\n'
+                    f'[model]\n{model}'
                     '[parameters.kappa]\nprior = { dist = "flat" }\n'
                     '[parameters.C]\nprior = { dist = "flat" }\n')
     return toml
@@ -60,6 +60,26 @@ def test_ir_gradient_against_finite_differences(tmp_path):
     j = pb.space.free.index("ir_offset")  # the offset's own term: sum(T_IR - pred) / sd^2
     assert abs(g[0, j]) > 1.0 and abs(g[0, j] - ref[0, j]) < 1e-5 * abs(ref[0, j])
     np.testing.assert_allclose(blobs, post(th)[1], rtol=1e-12)
+
+
+@pytest.mark.parametrize("model", [
+    'h = { kind = "uniform", n = 4 }\nextensions = ["surface_layer"]\n',
+    'extensions = ["energy_balance", "surface_layer"]\n[parameters.ir_view]\nvary = true\n'])
+def test_ir_gradient_through_the_canopy_skin(tmp_path, model):
+    """Above a surface layer the IR reads the skin T_0 + R G (physics/skin.py), seen over a
+    footprint fraction ir_view: its adjoint, through R, the surface coefficients (free h or the
+    energy balance's laws), ir_view and the top node, equals central differences of whole
+    solves."""
+    pb = build_problem(load_case(_twin(tmp_path, plates=(3.0,), model=model)))
+    post = pb.posterior
+    rng = np.random.default_rng(2)
+    th = np.repeat(pb.space.initial()[None], 2, 0) * (1 + 0.02 * rng.standard_normal((2, len(pb.space.free))))
+    th[:, pb.space.free.index("R_surface")] = [0.1, 0.4]
+    ll, g, _ = post.loglik_and_grad(th, "adjoint")
+    ref = _central(post, th)
+    np.testing.assert_allclose(g, ref, rtol=0, atol=1e-6 * np.abs(ref).max())
+    j = pb.space.free.index("R_surface")
+    np.testing.assert_allclose(g[:, j], ref[:, j], rtol=1e-5)
 
 
 def test_fit_recovers_the_ir_offset(tmp_path):

@@ -72,6 +72,11 @@ class SurfaceLayer(Extension):
     :math:`G = (q + h (T_a - T_0)) / (1 + h R)`: both the transfer coefficient and the
     radiative forcing the soil feels are damped by :math:`1 + hR` (``h`` the fitted surface
     coefficient, ``T_0`` the soil top). Sensor depths stay measured from the soil surface.
+
+    With ``energy_balance`` before it this is the canopy skin balance
+    :math:`R_n = H + LE + G`, :math:`H = h_H (T_k - T_a)`, :math:`G = (T_k - T_0)/R`, solved
+    for the skin temperature :math:`T_k = T_0 + R\,G` (:meth:`skin`): the surface an infrared
+    thermometer sees (``[data] ir_sigma``), which is what pins ``R`` and the H law.
     """
 
     name = "surface_layer"
@@ -95,6 +100,12 @@ class SurfaceLayer(Extension):
         q_damp = 1.0 + h_at_times(coeffs.h) * R
         coeffs.h = coeffs.h / (1.0 + coeffs.h * R)
         coeffs.q = coeffs.q / q_damp
+
+    def skin(self, T, G, p, model):
+        return T + p["R_surface"][:, None] * G
+
+    def skin_vjp(self, g, T, G, p, model):
+        return g, p["R_surface"][:, None] * g, {"R_surface": np.sum(g * G, axis=1)}
 
     def surface_vjp(self, g_h, g_q, h_in, q_in, p, model):
         R = p["R_surface"][:, None]

@@ -1,0 +1,117 @@
+"""The canopy skin of ``energy_balance`` + ``surface_layer`` (physics/skin.py): its steady state
+against the closed-form solution of the skin balance, and the IR reading it gives."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from pavement_mcmc.data import Measurements
+from pavement_mcmc.physics import Model
+from pavement_mcmc.physics.catalogue.surface import priestley_taylor_weight
+from pavement_mcmc.physics.hbasis import HBasis
+from pavement_mcmc.physics.skin import skin_temperature
+from pavement_mcmc.solver import Grid
+
+RN, TA, U, TB, L = 300.0, 15.0, 2.0, 8.0, 0.3
+P = {"kappa": 1.1, "C": 2.4e6, "eb_h0": 4.0, "eb_h1": 3.0, "R_surface": 0.25}
+
+
+def _steady_model() -> Model:
+    """Ten days of constant forcing (R_n, T_air, wind) over a 30 cm column."""
+    t = np.arange(0.0, 10 * 86400.0 + 1, 3600.0)
+    n = t.size
+    meas = Measurements(t=t, time0="2020-01-01T00:00:00Z", T_air=np.full(n, TA),
+                        q_net=np.full(n, RN), wind=np.full(n, U), rain=None,
+                        depths=np.array([0.05]), T_obs=np.full((n, 1), TB), bottom_depth=L,
+                        T_bottom=np.full(n, TB), sigma=0.1)
+    grid = Grid.build(meas, dx=0.005, dt=900.0)
+    return Model(meas, grid, HBasis.from_config(t, {"kind": "per_interval"}),
+                 ["energy_balance", "surface_layer"])
+
+
+def test_skin_balance_steady_state_is_the_closed_form():
+    r"""At steady state the model's skin T_k, soil top T_0 and flux G solve
+    R_n - LE - h_H (T_k - T_a) = G = (T_k - T_0)/R = kappa (T_0 - T_b)/L (three linear
+    equations, LE = alpha s/(s+gamma) R_n), and the flux split closes: R_n = H + LE + G."""
+    model = _steady_model()
+    n_days = len([q for q in model.parameter_space().names if q.startswith("eb_alpha_")])
+    p = {k: np.array([v]) for k, v in P.items()} | {
+        f"eb_alpha_{d + 1}": np.array([0.9]) for d in range(n_days)}
+    coeffs = model.coefficients(p)
+    T_nodes = model.solve(p)
+    Tk = skin_temperature(model, T_nodes, coeffs, p)[0, -1]
+    G = model.surface_flux(T_nodes, coeffs)[0, -1]
+    LE = 0.9 * priestley_taylor_weight(np.array([TA]))[0] * RN
+    h, R, k = P["eb_h0"] + P["eb_h1"] * U, P["R_surface"], P["kappa"]
+    # unknowns (T_k, T_0, G)
+    A = np.array([[h, 0.0, 1.0], [1.0, -1.0, -R], [0.0, k / L, -1.0]])
+    b = np.array([RN - LE + h * TA, 0.0, k * TB / L])
+    Tk_ref, T0_ref, G_ref = np.linalg.solve(A, b)
+    assert T_nodes[0, -1, 0] == pytest.approx(T0_ref, abs=1e-3)
+    assert G == pytest.approx(G_ref, rel=1e-3)
+    assert Tk == pytest.approx(Tk_ref, abs=1e-3)
+    assert Tk - T_nodes[0, -1, 0] > 5.0  # the layer matters: the skin is well above the soil
+    H = h * (Tk - TA)
+    assert H + LE + G == pytest.approx(RN, rel=1e-6)
+
+
+def test_canopy_steady_state_is_the_closed_form():
+    """``canopy`` (a storing skin node joined to the soil by R_canopy) at steady state: the skin
+    is the model's top node and solves the same three equations, the soil now starting one
+    first cell (1 mm) below it; the canopy's heat capacity drops out."""
+    model0 = _steady_model()
+    meas = model0.meas
+    grid = Grid.stretched(L, meas.t, dx_top=0.001, growth=1.08, dt=900.0, nodes_at=[0.05])
+    model = Model(meas, grid, model0.h_basis, ["energy_balance", "canopy"])
+    names = model.parameter_space().names
+    base = {"kappa": P["kappa"], "C": P["C"], "eb_h0": P["eb_h0"], "eb_h1": P["eb_h1"],
+            "R_canopy": P["R_surface"], "c_canopy": 8e3}
+    p = {k: np.array([v]) for k, v in base.items()} | {
+        n: np.array([0.9]) for n in names if n.startswith("eb_alpha_")}
+    T_nodes = model.solve(p)
+    LE = 0.9 * priestley_taylor_weight(np.array([TA]))[0] * RN
+    h, R, k = P["eb_h0"] + P["eb_h1"] * U, P["R_surface"], P["kappa"]
+    d0 = float(grid.x[1])
+    A = np.array([[h, 0.0, 1.0], [1.0, -1.0, -R], [0.0, k / (L - d0), -1.0]])
+    b = np.array([RN - LE + h * TA, 0.0, k * TB / (L - d0)])
+    Tk_ref, T0_ref, _ = np.linalg.solve(A, b)
+    assert T_nodes[0, -1, 0] == pytest.approx(Tk_ref, abs=1e-3)
+    assert T_nodes[0, -1, 1] == pytest.approx(T0_ref, abs=1e-3)
+    with pytest.raises(ValueError, match="dx_top = 0.001"):
+        Model(meas, Grid.build(meas, dx=0.005, dt=900.0), model0.h_basis,
+              ["energy_balance", "canopy"]).coefficients(p)
+
+
+def test_canopy_stores_heat_energy_is_conserved():
+    """Over a day of a stepped net radiation the energy that entered the surface (R_n - H - LE,
+    the model's surface flux) equals the heat stored in the canopy node and the soil plus what
+    left at the bottom, to the time discretisation's accuracy; a heavier canopy stores more."""
+    model0 = _steady_model()
+    meas = model0.meas
+    t = meas.t[:25]
+    q = np.where((t > 6 * 3600) & (t < 18 * 3600), 400.0, -60.0)
+    from dataclasses import replace
+    meas = replace(meas.select_rows(np.arange(25)), q_net=q)
+    grid = Grid.stretched(L, t, dx_top=0.001, growth=1.08, dt=300.0, nodes_at=[0.05])
+    stored = []
+    for c in (2e3, 2e4):
+        model = Model(meas, grid, HBasis.from_config(t, {"kind": "per_interval"}),
+                      ["energy_balance", "canopy"])
+        p = {"kappa": np.array([1.1]), "C": np.array([2.4e6]), "eb_h0": np.array([4.0]),
+             "eb_h1": np.array([3.0]), "eb_alpha_1": np.array([0.8]),
+             "R_canopy": np.array([0.25]), "c_canopy": np.array([c])}
+        coeffs = model.coefficients(p)
+        T = model.solve(p)[0]
+        x = grid.x
+        dx = np.diff(x)
+        vol = np.r_[dx[0] / 2, 0.5 * (dx[1:] + dx[:-1]), dx[-1] / 2]  # nodal control volumes
+        heat = (coeffs.C[0] * vol * (T[-1] - T[0]))[:-1].sum()  # the bottom node is fixed
+        G = model.surface_flux(T[None], coeffs)[0]
+        k_last = coeffs.kappa[0, -1]
+        bottom = k_last * (T[:, -2] - T[:, -1]) / dx[-1]
+        dts = np.diff(t)
+        inflow = np.sum(0.5 * (G[1:] + G[:-1]) * dts) - np.sum(0.5 * (bottom[1:] + bottom[:-1]) * dts)
+        assert heat == pytest.approx(inflow, rel=0.02)
+        stored.append(coeffs.C[0, 0] * vol[0] * (T[:, 0].max() - T[:, 0].min()))
+    assert stored[1] > 3 * stored[0]
