@@ -29,8 +29,8 @@ from __future__ import annotations
 import numpy as np
 
 from ..parameters import Parameter
-from ..physics.skin import skin_temperature, skin_vjp
 from ..parameters.priors import TruncatedNormal
+from ..physics.skin import skin_temperature, skin_vjp
 from .observations import Observation
 
 __all__ = ["COLUMN", "OFFSET_SD", "SurfaceIR"]
