@@ -28,18 +28,25 @@ from pavement_mcmc.physics.catalogue.energy import energy_partition
 from pavement_mcmc.posterior import build_problem
 
 REPO = Path(__file__).resolve().parents[1]
-FIXED_LOAM = {"kappa": {"value": 1.2, "vary": False}, "C": {"value": 2.5e6, "vary": False}}
-#: record -> (label, case TOML, extensions instead of the TOML's (None: as is), overrides)
+GRASS_IR = {"data": {"extras": "../../shared/data/goettingen_grass/extras.csv", "ir_sigma": 0.5}}
+NO_PLATE = {"data": {"plates": False}}
+#: record -> (label, case TOML, extensions instead of the TOML's (None: as is), overrides).
+#: The rows without the IR stream take the base TOMLs (no extras) with the energy balance named.
 CASES = {
     "grass": [("base (per-interval h)", "grass.toml", None, {}),
-              ("energy_balance", "grass_energy.toml", ["energy_balance"], {}),
-              ("energy_balance + surface_layer", "grass_energy.toml", None, {}),
-              ("  same, kappa 1.2 and C 2.5e6 fixed", "grass_energy.toml", None,
-               {"parameters": FIXED_LOAM})],
+              ("energy_balance + surface_layer, no IR", "grass.toml",
+               ["energy_balance", "surface_layer"], {}),
+              ("energy_balance + surface_layer + IR", "grass.toml",
+               ["energy_balance", "surface_layer"], GRASS_IR),
+              ("energy_balance + canopy + IR", "grass_energy.toml", None, {}),
+              ("  same, plate not observed", "grass_energy.toml", None, NO_PLATE),
+              ("energy_balance + two_layer + canopy + IR, no plate", "grass_energy.toml",
+               ["energy_balance", "two_layer", "canopy"], NO_PLATE)],
     "desert": [("base (per-interval h)", "desert.toml", None, {}),
                ("base + two_layer", "desert.toml", ["two_layer"], {}),
-               ("energy_balance", "desert_energy.toml", ["energy_balance"], {}),
-               ("energy_balance + two_layer", "desert_energy.toml", None, {})],
+               ("energy_balance + two_layer, no IR", "desert.toml",
+                ["energy_balance", "two_layer"], {}),
+               ("energy_balance + two_layer + IR (ir_view)", "desert_energy.toml", None, {})],
 }
 DAY_H = 24.0
 
@@ -71,12 +78,16 @@ def run(toml: Path, exts: list[str] | None = None, overrides: dict | None = None
     pb = build_problem(cfg, extensions=exts)
     fit = refit(pb, max_nfev=200)
     v = fit.values()
+    blobs = dict(zip(pb.posterior.blob_names, pb.posterior.loglik_blobs(fit.theta[None])[1][0],
+                     strict=True))
     out = {"rmse": fit.rmse, "sigma": pb.meas.sigma, "kappa": v["kappa"], "C": v["C"],
+           "rmse_ir": blobs.get("rmse_IR"),
            "plate": v.get("plate_G5cm"), "p_eff": fit.p_eff, "seconds": 0.0}
     lo, hi = pb.space.bounds()
-    base_names = {"kappa", "C", "gamma", "plate_G5cm"}
+    base_names = {"kappa", "C", "gamma", "plate_G5cm", "ir_offset", "ir_view"}
     own = [n for n in pb.space.free if n not in base_names and pb.space[n].group != "h"]
     out["added"] = {n: v[n] for n in own}
+    out["ir"] = {n: v[n] for n in ("ir_offset", "ir_view") if n in pb.space.free}
     out["at_bound"] = [n for n in own if min(v[n] - lo[pb.space.free.index(n)],
                                              hi[pb.space.free.index(n)] - v[n])
                        < 1e-3 * (hi[pb.space.free.index(n)] - lo[pb.space.free.index(n)])]
@@ -105,6 +116,9 @@ def main(records: list[str]) -> None:
                   f"  kappa {r['kappa']:.3g}  C {r['C'] / 1e6:.3g} MJ  k/C "
                   f"{r['kappa'] / r['C'] * 1e6:.3g} mm2/s  plate {r['plate'] or float('nan'):.2f}  "
                   f"p_eff {r['p_eff']:.1f}  [{r['seconds']:.0f} s]")
+            if r["rmse_ir"] is not None:
+                print(f"       IR: RMSE {r['rmse_ir']:.2f} C, "
+                      + ", ".join(f"{k} {x:.3g}" for k, x in r["ir"].items()))
             if r["added"]:
                 print("       added: " + ", ".join(f"{k} {x:.3g}" for k, x in r["added"].items())
                       + (f"; at a bound: {r['at_bound']}" if r["at_bound"] else "; none at a bound"))
