@@ -26,8 +26,10 @@ interval is gone), so the model can predict a day it has not seen from its forci
   K-1. Relative humidity is not in the CSV contract, so the evaporative demand is not used: a
   drying surface shows as a falling ``eb_alpha`` from day to day.
 
-A heat-flux into a thatch or grass layer is added by listing ``surface_layer`` after this entry
-(its resistance then damps ``h_H`` and ``R_n - LE`` together). :func:`energy_partition` gives the
+A grass or thatch layer is added by listing ``canopy`` (a skin node with heat capacity above
+the soil, which the balance acts on) or ``surface_layer`` (a pure resistance: it then damps
+``h_H`` and ``R_n - LE`` together) after this entry; the infrared surface temperature
+(``[data] ir_sigma``) observes the skin. :func:`energy_partition` gives the
 four fluxes a fit implies; the report and ``plot_energy_balance`` show them.
 """
 
@@ -124,7 +126,8 @@ class Partition:
 
     ``Rn`` the recorded net radiation (the same for every set), ``H`` sensible and ``LE`` latent
     heat leaving the surface, ``G`` the heat flux into the soil (``Rn = H + LE + G``; with a
-    surface layer its small storage is neglected as in the model).
+    ``surface_layer`` its storage is neglected as in the model; with a ``canopy`` ``G`` enters
+    the canopy skin: the canopy's storage and the soil's flux together).
     """
 
     t: np.ndarray
