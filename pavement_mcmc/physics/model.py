@@ -193,10 +193,12 @@ class Model:
     def has_gradient(self) -> bool:
         """Whether :meth:`solve_vjp` is available: the Crank–Nicolson scheme, and extensions
         whose coefficients do not depend on temperature (``adjoint``) and whose ``observe``
-        hooks, if any, give their vector-Jacobian product."""
+        and ``skin`` hooks, if any, give their vector-Jacobian product."""
         for ext in self.extensions:
             overrides_observe = type(ext).observe is not Extension.observe
             if not ext.adjoint or (overrides_observe and ext.observe_vjp is None):
+                return False
+            if type(ext).skin is not Extension.skin and ext.skin_vjp is None:
                 return False
         return self.scheme == "cn"
 

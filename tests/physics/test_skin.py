@@ -115,3 +115,19 @@ def test_canopy_stores_heat_energy_is_conserved():
         assert heat == pytest.approx(inflow, rel=0.02)
         stored.append(coeffs.C[0, 0] * vol[0] * (T[:, 0].max() - T[:, 0].min()))
     assert stored[1] > 3 * stored[0]
+
+
+def test_a_skin_without_its_adjoint_turns_the_gradient_to_finite_differences():
+    """An extension that places the skin but gives no ``skin_vjp`` leaves the model without an
+    adjoint (the IR stream's gradient would be wrong), and the shipped surface_layer keeps it."""
+    from pavement_mcmc.physics.base import Extension
+
+    class Plain(Extension):
+        name = "plain_skin"
+
+        def skin(self, T, G, p, model):
+            return T + 0.1 * G
+
+    model = _steady_model()
+    assert model.has_gradient
+    assert not Model(model.meas, model.grid, model.h_basis, ["energy_balance", Plain()]).has_gradient
