@@ -2,7 +2,8 @@
 deep real record (72 h of 30-min data, sensors to 50 cm).
 
 Run ``python benchmarks/bench_solver.py [--quick]``; ``make bench`` calls :func:`main`, which
-prints :func:`run` (reference case) and :func:`run_deep` (deep record, uniform vs stretched).
+prints :func:`run` (reference case), :func:`run_sweep` (the serial kernel's cost by batch size)
+and :func:`run_deep` (deep record, uniform vs stretched).
 For each batch size it reports the time per forward solve of the compiled Crank–Nicolson
 kernel, solves per second, the grid's accuracy (max abs difference, over all nodes and
 observation times, against a solution refined 4x in both dx and dt) and the speed-up over the
@@ -152,6 +153,35 @@ def run(quick: bool = False) -> list[dict]:
     return rows
 
 
+SWEEP = (8, 16, 32, 64, 128, 256)
+
+
+def run_sweep(quick: bool = False) -> list[dict]:
+    """The serial CN kernel alone (one block, on the calling thread) for growing batches:
+    process CPU us per set and per node-step, minima over rounds timed in turn. The fit
+    ``call = fixed + per_set x sets`` (16-128 sets) separates the per-call cost (loop
+    set-up over ~670 steps) from the arithmetic a set costs."""
+    from pavement_mcmc.solver import forward as fw
+    from pavement_mcmc.solver.kernels import cn as kernels
+
+    meas = load_reference()
+    grid = Grid.build(meas)
+    forcing = Forcing.from_measurements(meas, grid)
+    fns = {}
+    for n in SWEEP:
+        c = _coeffs(meas, grid, n)
+        P = fw._problem(grid, forcing, *fw._check(grid, forcing, c), c.T_ref, False)
+        out = np.empty((grid.n_obs, grid.n_nodes, n))
+        fns[n] = lambda P=P, n=n, out=out: kernels.cn_serial(P, n, out)
+    best = _time_interleaved(fns, 0.02 if quick else 0.05, 3 if quick else 7)
+    node_steps = (int(grid.substeps.sum()) + grid.n_obs - 1) * (grid.n_nodes - 1)  # + damped halves
+    fit = [n for n in SWEEP if 16 <= n <= 128]  # (at 256 sets the working set leaves L1)
+    slope, fixed = (float(v) for v in np.polyfit(fit, [best[n][1] for n in fit], 1))
+    return [dict(n_sets=n, cpu_us_per_solve=1e6 * best[n][1] / n,
+                 ns_per_node_step=1e9 * best[n][1] / n / node_steps,
+                 fit_fixed_us=1e6 * fixed, fit_us_per_set=1e6 * slope) for n in SWEEP]
+
+
 def load_deep(days: float = 3.0, path: Path = DEEP) -> Measurements:
     """``days`` of the shared deep real record (2, 5, 10, 20 cm observed, 50 cm bottom)."""
     with warnings.catch_warnings():  # the G_5cm flux-plate column is not in the contract
@@ -289,6 +319,10 @@ def main(quick: bool = False) -> None:
         f"layer {numba.config.THREADING_LAYER}; load average {os.getloadavg()[0]:.1f}"
     )
     print(format_table(run(quick=quick)))
+    print("\nserial CN kernel alone, by batch size (process CPU; fit over 16-128 sets)")
+    for r in run_sweep(quick=quick):
+        print(f"{r['n_sets']:5d} sets {r['cpu_us_per_solve']:7.2f} us/solve {r['ns_per_node_step']:6.2f} "
+              f"ns/node-step   fit: {r['fit_fixed_us']:.0f} us/call + {r['fit_us_per_set']:.2f} us/set")
     rows = run_deep(quick=quick)
     if not rows:
         print(f"\ndeep real record not found at {DEEP} (set PAVEMENT_DEEP_RECORD): rows skipped")

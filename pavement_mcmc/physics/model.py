@@ -158,6 +158,17 @@ class Model:
         return h * (self.forcing.T_air[None, :] - T_nodes[..., 0]) + coeffs.q
 
     # -- observations ------------------------------------------------------------------------
+    @property
+    def observes_nominal(self) -> bool:
+        """Whether the sensors are read at their nominal depths only (no extension overrides
+        ``observe``): :meth:`observe` is then :meth:`observe_nominal`."""
+        return all(type(e).observe is Extension.observe for e in self.extensions)
+
+    @property
+    def sensor_weights(self) -> tuple[np.ndarray, np.ndarray]:
+        """Left node index and right-node weight of each observed sensor (:meth:`observe_nominal`)."""
+        return self._obs_i, self._obs_w
+
     def observe_nominal(self, T_nodes: np.ndarray) -> np.ndarray:
         """Temperatures at the sensors' nominal depths (n_sets, n_obs, n_sensors)."""
         return interpolate(T_nodes, self._obs_i, self._obs_w)

@@ -40,6 +40,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from .compiled import temperature_cotangent, temperature_terms
+
 _LOG_2PI = np.log(2.0 * np.pi)
 
 
@@ -144,6 +146,30 @@ class Temperatures(Observation):
         if self.input_noise is None:
             return np.full(self.data.shape, self.sigma)
         return self.input_noise.marginal_sd.reshape(self.data.shape)
+
+    def compiled_applies(self, model) -> bool:
+        """Whether :meth:`compiled_terms` gives this stream's terms: whitened by ``sigma`` (no
+        input noise), read at the sensors' nominal depths (no ``observe`` hook)."""
+        return self.input_noise is None and model.observes_nominal
+
+    def compiled_terms(self, model, T_nodes):
+        """``(ll, rmse, gT)`` of this stream alone by the compiled path (:mod:`.compiled`;
+        the caller checks :meth:`compiled_applies`): what :meth:`predict`, :meth:`whiten`,
+        :func:`log_likelihood` and :meth:`vjp` give, to the bit, in two compiled calls; None
+        for nodal temperatures in a layout other than the solver's or C order (NumPy's
+        summation order is only known for those)."""
+        if T_nodes.transpose(1, 2, 0).flags.c_contiguous:  # the solver's buffer, sets innermost
+            pairwise = False
+        elif T_nodes.flags.c_contiguous:
+            pairwise = True
+        else:
+            return None
+        oi, ow = model.sensor_weights
+        ll, rmse, z = temperature_terms(T_nodes, oi, ow, self.data, self.sigma, self.logdet,
+                                        self.size * _LOG_2PI, pairwise)
+        ok = np.isfinite(ll)
+        gT = temperature_cotangent(z, ok, oi, ow, self.sigma, T_nodes.shape[1], T_nodes.shape[2])
+        return np.where(ok, ll, -np.inf), rmse, gT
 
     def vjp(self, model, pred, r, z, ok, T_nodes, coeffs, p, gT):
         gp = np.zeros_like(pred)

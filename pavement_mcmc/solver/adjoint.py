@@ -169,20 +169,10 @@ def _gradients(grid, kappa, C, h, q, acc_a, acc_b, acc_h, acc_q) -> dict[str, np
     ``sum mu_i G_i = (f_i kappa_i acc_a[i] - (d_i / d_i-1) kappa_i-1 acc_b[i-1]) / (C_i Vd_i d_i)``.
     On a uniform grid the ratios are exactly 1 and ``Vd d = dx dx``.
     """
-    S, N = kappa.shape
     geom = grid._rate_geometry()
-    Cn = C[:, :N]
-    f = np.ones(N)
-    f[0] = 2.0  # half control volume at the surface: c_0 = 2 kappa_0 / (C_0 dx_0^2)
-    gk = -f * acc_a / Cn
-    gk[:, :-1] += geom.vol_ratio * acc_b[:, :-1] / Cn[:, 1:]
-    gk /= geom.den
-    # sum over steps of mu_i (T_i - T+_i) = c_i acc_a[i] - a_i acc_b[i-1] (+ the surface's h, q terms)
-    sg = f * kappa * acc_a
-    sg[:, 1:] -= kappa[:, :-1] * acc_b[:, :-1] * geom.inv_rho[1:]
-    sg /= Cn * geom.Vd * geom.d
-    hs = 2.0 / (Cn[:, 0] * geom.dx0)
-    sg[:, 0] += hs * (np.sum(h * acc_h, axis=1) - np.sum(q * acc_q, axis=1))
-    gC = np.zeros((S, N + 1))
-    gC[:, :N] = sg / Cn
+    # the two sums over intervals in NumPy (its summation order); the rest compiled, the same
+    # operations in the same order as the NumPy expressions in K.gradient_terms' docstring
+    sums = np.sum(h * acc_h, axis=1) - np.sum(q * acc_q, axis=1)
+    gk, gC, hs = K.gradient_terms(kappa, C, acc_a, acc_b, geom.vol_ratio, geom.inv_rho, geom.Vd,
+                                  geom.d, geom.den, geom.dx0, sums)
     return {"kappa": gk, "C": gC, "h": -hs[:, None] * acc_h, "q": hs[:, None] * acc_q}

@@ -327,3 +327,37 @@ def vjp_serial(P, out, G, stored, buf, block, acc):
     S = P.kappaT.shape[1]
     for s0 in range(0, S, block):
         _vjp_block(P, out, G, stored, buf, s0, min(block, S - s0), acc)
+
+
+@njit(cache=True)
+def gradient_terms(kappa, C, acc_a, acc_b, vol_ratio, inv_rho, Vd, d, den, dx0, sums):
+    """The kappa and C gradients and the surface factor ``hs`` (S,) from the reverse sweep's sums
+    (all (S, N); ``sums`` (S,) = ``sum_j h_j acc_h[j] - sum_j q_j acc_q[j]``), for
+    :func:`pavement_mcmc.solver.adjoint._gradients`. The NumPy expressions it replaces, whose
+    operations and their order it keeps (no FMA: not ``fastmath``), so the floats are the same
+    (``f = (2, 1, 1, ...)``, ``Cn = C[:, :N]``)::
+
+        gk = -f * acc_a / Cn; gk[:, :-1] += vol_ratio * acc_b[:, :-1] / Cn[:, 1:]; gk /= den
+        sg = f * kappa * acc_a; sg[:, 1:] -= kappa[:, :-1] * acc_b[:, :-1] * inv_rho[1:]
+        sg /= Cn * Vd * d; hs = 2.0 / (Cn[:, 0] * dx0); sg[:, 0] += hs * sums; gC = sg / Cn
+    """
+    S, N = kappa.shape
+    gk = np.empty((S, N))
+    gC = np.zeros((S, N + 1))
+    hs = np.empty(S)
+    for s in range(S):
+        hs[s] = 2.0 / (C[s, 0] * dx0)
+        for k in range(N):
+            f = 2.0 if k == 0 else 1.0
+            g = (-f * acc_a[s, k]) / C[s, k]
+            if k < N - 1:
+                g = g + (vol_ratio[k] * acc_b[s, k]) / C[s, k + 1]
+            gk[s, k] = g / den[k]
+            sg = (f * kappa[s, k]) * acc_a[s, k]
+            if k > 0:
+                sg = sg - (kappa[s, k - 1] * acc_b[s, k - 1]) * inv_rho[k]
+            sg = sg / ((C[s, k] * Vd[k]) * d[k])
+            if k == 0:
+                sg = sg + hs[s] * sums[s]
+            gC[s, k] = sg / C[s, k]
+    return gk, gC, hs
