@@ -142,8 +142,8 @@ def grid_chosen(meas, grid_cfg: dict, grid: Grid) -> dict:
     if not why:
         return {}
     dx = np.diff(grid.x)
-    return {"kind": kind, "nodes": int(grid.n_nodes), "top_mm": round(1e3 * float(dx[0]), 2),
-            "deep_mm": round(1e3 * float(dx.max()), 2),
+    return {"kind": kind, "nodes": int(grid.n_nodes), "top_mm": round(1e3 * float(dx[0]), 1),
+            "deep_mm": round(1e3 * float(dx.max()), 1),
             "steps_per_interval": int(np.max(grid.substeps)), "why": why}
 
 
