@@ -19,9 +19,9 @@ MAP and its Laplace covariance, from three numbers of the problem:
   than a sixth of its value has a visibly skewed posterior) and there are at least
   :data:`SKEWED_MIN` of them, both coordinates go on too. The
   SoilVUE desert 72-h window (``runs/desert_plain.toml``: sensors from 5 cm, 72 hourly h,
-  median 4.9, only 5 of 72 near 0) needed 920 steps, 314k gradients in linear coordinates and
-  546 steps, 173k with the hand options of ``runs/desert.toml``; Case C's median is 9.1,
-  the Göttingen window's 1.3.
+  median 4.9, only 5 of 72 near 0) needed 920 steps, 314k gradients in linear coordinates,
+  525 steps, 174k with this rule (546, 173k with the hand options of ``runs/desert.toml``);
+  Case C's median is 9.1, the Göttingen window's 1.3.
 - **metric windows**: the second window pools ``n_chains * metric_at`` draws (800 with 16
   chains); with fewer than :data:`DRAWS_PER_DIM` of them per parameter (more than 133
   parameters) its covariance is too noisy to freeze, and a third window (``4 metric_at``) is
