@@ -11,7 +11,8 @@ import time
 os.environ.setdefault("OMP_NUM_THREADS", "1")
 sys.path.insert(0, os.path.dirname(__file__))
 
-BENCHES = ["bench_solver", "bench_gradient", "bench_samplers", "bench_field", "bench_batch"]
+BENCHES = ["bench_solver", "bench_gradient", "bench_samplers", "bench_field", "bench_defaults",
+           "bench_batch"]
 
 
 def print_table(rows: list[dict]) -> None:

@@ -57,7 +57,7 @@ def _report(args, out) -> int:
                "min_ess": float(np.min(res.ess)) if res.ess.size else None,
                "max_rhat": float(np.max(res.rhat)) if res.rhat.size else None,
                "table": out.table, "plausibility": [f.text() for f in out.findings],
-               "sampler_chosen": out.chosen}
+               "sampler_chosen": out.chosen, "grid_chosen": out.grid_chosen}
     from ..runs import format_table
 
     shown = out.table if len(out.table) <= 12 else out.table[:6] + out.table[-3:]
@@ -68,6 +68,7 @@ def _report(args, out) -> int:
         *[f.text() for f in out.findings],
         *([f"note: {n}"] if (n := out.problem.model.boundary_note()) else []),
         *([eb] if (eb := _energy_line(out)) else []),
+        *([_grid_line(out.grid_chosen)] if out.grid_chosen else []),
         *([_chosen_line(out.chosen)] if out.chosen else []),
         f"{'converged' if res.converged else 'NOT converged'}: {res.reason}",
         f"{res.n_steps} steps, {res.n_evals} solves, {res.elapsed:.1f} s; "
@@ -96,6 +97,15 @@ def _chosen_line(chosen: dict) -> str:
     = 3, log_positive = True (147 parameters ...)``."""
     vals = ", ".join(f"{k} = {v}" for k, v in chosen.items() if k != "why")
     return f"sampler options chosen: {vals}" + (f" ({chosen['why']})" if chosen.get("why") else "")
+
+
+def _grid_line(g: dict) -> str:
+    """The solver grid chosen from the case, e.g. ``grid chosen: stretched, 44 nodes (4 mm at
+    the top to 30 mm), 7 steps per interval (the bottom boundary at 50 cm is deeper ...)``."""
+    cells = (f"{g['top_mm']:g} mm at the top to {g['deep_mm']:g} mm" if g["kind"] == "stretched"
+             else f"{g['top_mm']:g} mm")
+    return (f"grid chosen: {g['kind']}, {g['nodes']} nodes ({cells}), {g['steps_per_interval']} "
+            f"steps per interval ({g['why']})")
 
 
 def _interrupted(run_dir) -> int:

@@ -32,6 +32,8 @@ class Problem:
     space: ParameterSpace
     posterior: LogPosterior
     input_ref: dict | None = None
+    #: what ``[grid] kind = "auto"`` chose (:func:`grid_chosen`); {} if set by hand
+    grid_chosen: dict | None = None
 
     @property
     def meas(self):
@@ -68,7 +70,7 @@ def build_problem(cfg, extensions=None, h_spec: dict | None = None, *,
         else:
             theta = None if input_noise is None else _theta_at(space, input_noise)
             ref = attach_input_noise(posterior, sigmas, theta)
-    return Problem(cfg, model, space, posterior, ref)
+    return Problem(cfg, model, space, posterior, ref, grid_chosen(model.meas, cfg.grid, model.grid))
 
 
 def _assemble(cfg, extensions, h_spec):
@@ -111,14 +113,38 @@ def build_grid(meas, grid_cfg: dict) -> Grid:
     ``"auto"``: uniform when ``dx`` is given or the bottom boundary is no deeper than
     :data:`AUTO_UNIFORM_MAX`, stretched otherwise (a uniform 5 mm grid over 50 cm is 100
     cells)."""
-    kind = grid_cfg.get("kind", "auto")
-    if kind == "auto":
-        shallow = meas.bottom_depth <= AUTO_UNIFORM_MAX + 1e-12
-        kind = "uniform" if shallow or grid_cfg.get("dx") is not None else "stretched"
+    kind = grid_kind(meas, grid_cfg)[0]
     if kind == "uniform":
         return Grid.build(meas, **{k: grid_cfg[k] for k in ("dx", "dt") if grid_cfg.get(k) is not None})
     keys = ("dx_top", "growth", "dx_max", "dt")
     return Grid.build_stretched(meas, **{k: grid_cfg[k] for k in keys if grid_cfg.get(k) is not None})
+
+
+def grid_kind(meas, grid_cfg: dict) -> tuple[str, str]:
+    """The grid kind ``[grid]`` asks for (``"auto"`` decided from the case) and why: an empty
+    reason when the kind was set by hand (``kind = "uniform"``/``"stretched"``)."""
+    kind = grid_cfg.get("kind", "auto")
+    if kind != "auto":
+        return kind, ""
+    depth = f"the bottom boundary at {100 * meas.bottom_depth:g} cm"
+    if grid_cfg.get("dx") is not None:
+        return "uniform", "[grid] dx is given"
+    if meas.bottom_depth <= AUTO_UNIFORM_MAX + 1e-12:
+        return "uniform", f"{depth} is within {100 * AUTO_UNIFORM_MAX:g} cm"
+    return "stretched", f"{depth} is deeper than {100 * AUTO_UNIFORM_MAX:g} cm"
+
+
+def grid_chosen(meas, grid_cfg: dict, grid: Grid) -> dict:
+    """What ``[grid] kind = "auto"`` (the default) chose for the case, for ``fit`` to print and
+    ``result.json`` to keep: ``{"kind", "nodes", "top_mm", "deep_mm", "steps_per_interval",
+    "why"}``; {} when the kind was set by hand."""
+    kind, why = grid_kind(meas, grid_cfg)
+    if not why:
+        return {}
+    dx = np.diff(grid.x)
+    return {"kind": kind, "nodes": int(grid.n_nodes), "top_mm": round(1e3 * float(dx[0]), 1),
+            "deep_mm": round(1e3 * float(dx.max()), 1),
+            "steps_per_interval": int(np.max(grid.substeps)), "why": why}
 
 
 def _theta_at(space: ParameterSpace, values: dict) -> np.ndarray:

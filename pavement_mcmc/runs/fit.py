@@ -41,6 +41,8 @@ class FitOutput:
     report_removed: bool = False
     #: the sampler's options it chose from the problem (``"auto"`` ones) and why; {} if none
     chosen: dict = field(default_factory=dict)
+    #: the solver grid ``[grid] kind = "auto"`` chose from the case and why; {} if set by hand
+    grid_chosen: dict = field(default_factory=dict)
 
 
 def _sampler_for(problem: Problem, cfg):
@@ -175,9 +177,12 @@ def _finish(run_dir: Path, problem: Problem, res: RunResult, chosen: dict | None
     rec["param_names"] = data.param_names
     if chosen:
         rec["sampler_chosen"] = chosen
+    if problem.grid_chosen:
+        rec["grid_chosen"] = problem.grid_chosen
     folder.write_result(rec)
     table = statistics_table(problem, keep(data, rec, problem.cfg.sampler))
     write_table(table, run_dir)
     findings = plausibility(problem, table)
     write_plausibility(findings, run_dir, problem.model.boundary_note())
-    return FitOutput(run_dir, res, table, problem, findings, chosen=dict(chosen or {}))
+    return FitOutput(run_dir, res, table, problem, findings, chosen=dict(chosen or {}),
+                     grid_chosen=dict(problem.grid_chosen or {}))

@@ -122,9 +122,12 @@ class HMCSampler(Sampler):
             mode = np.asarray(lap.theta, float)
             cov = self._bounded(mode, np.asarray(lap.cov, float)[np.ix_(self.idx, self.idx)])
         i = self.idx
-        at0, above = self.lo[i] == 0.0, mode[i] > np.sqrt(np.diag(cov))
+        sd = np.sqrt(np.diag(cov))
+        at0, above = self.lo[i] == 0.0, mode[i] > sd
+        z = float(np.median(mode[i][at0] / sd[at0])) if at0.any() else np.inf
         self.options, self.chosen = resolve(self.options, n_params=i.size, n_chains=self.n_chains,
-                                            n_at0=int(at0.sum()), n_near=int((at0 & ~above).sum()))
+                                            n_at0=int(at0.sum()), n_near=int((at0 & ~above).sum()),
+                                            z_median=z)
         self.tlog = np.where(self.options.log_positive & at0 & above, LOG,  # coordinate kinds
                              np.where(self.options.sqrt_at_zero & at0 & ~above, SQRT, 0))
         self.shift = np.where(self.tlog == SQRT, self.options.sqrt_shift * np.sqrt(np.diag(cov)), 0.0)

@@ -13,7 +13,15 @@ MAP and its Laplace covariance, from three numbers of the problem:
   coordinates go on (the shifted sqrt for those near 0, log for those above it), as
   ``runs/grass.toml`` sets by hand for the Göttingen 72-h window (65 of 144 near 0). Case C
   (9 of 112 near 0), where ``log_positive`` alone costs 158k-194k instead of 114k gradients to
-  the stopping rule, and any problem with only a few such parameters keep linear coordinates.
+  the stopping rule, and any problem with only a few such parameters keep linear coordinates
+  unless their posteriors are **skewed**: when the median, over the parameters bounded at 0,
+  of mode / Laplace sd is below :data:`SKEWED_MEDIAN` (a positive parameter whose sd is more
+  than a sixth of its value has a visibly skewed posterior) and there are at least
+  :data:`SKEWED_MIN` of them, both coordinates go on too. The
+  SoilVUE desert 72-h window (``runs/desert_plain.toml``: sensors from 5 cm, 72 hourly h,
+  median 4.9, only 5 of 72 near 0) needed 920 steps, 314k gradients in linear coordinates,
+  525 steps, 174k with this rule (546, 173k with the hand options of ``runs/desert.toml``);
+  Case C's median is 9.1, the Göttingen window's 1.3.
 - **metric windows**: the second window pools ``n_chains * metric_at`` draws (800 with 16
   chains); with fewer than :data:`DRAWS_PER_DIM` of them per parameter (more than 133
   parameters) its covariance is too noisy to freeze, and a third window (``4 metric_at``) is
@@ -33,6 +41,10 @@ AUTO = "auto"
 PILED_SHARE = 0.2
 #: ... and at least this many of them
 PILED_MIN = 3
+#: coordinates also when the median of mode / Laplace sd of the parameters bounded at 0 is
+#: below this, for a series of at least SKEWED_MIN of them (an h(t); a few skewed parameters
+#: are left to the metric: hmc's truncated-normal tests keep linear coordinates)
+SKEWED_MEDIAN, SKEWED_MIN = 6.0, 10
 #: metric windows: pooled draws per parameter below which a third window is added
 DRAWS_PER_DIM = 6
 #: the values an ``"auto"`` option took before the rule existed (a resumed old run keeps them)
@@ -91,7 +103,7 @@ class HMCOptions:
 
 
 def resolve(options: HMCOptions, *, n_params: int, n_chains: int, n_at0: int,
-            n_near: int) -> tuple[HMCOptions, dict]:
+            n_near: int, z_median: float = float("inf")) -> tuple[HMCOptions, dict]:
     """The options with every ``"auto"`` one decided, and what was chosen.
 
     Parameters
@@ -101,6 +113,7 @@ def resolve(options: HMCOptions, *, n_params: int, n_chains: int, n_at0: int,
     n_chains : chains pooled by the metric windows.
     n_at0 : parameters bounded below by 0.
     n_near : of those, the ones whose mode lies within one Laplace sd of 0.
+    z_median : the median of their mode / Laplace sd (default: none is skewed).
 
     Returns
     -------
@@ -111,16 +124,22 @@ def resolve(options: HMCOptions, *, n_params: int, n_chains: int, n_at0: int,
     if not auto:
         return options, {}
     piled = n_near >= max(PILED_MIN, PILED_SHARE * n_at0)
+    skewed = n_at0 >= SKEWED_MIN and z_median < SKEWED_MEDIAN
     draws = n_chains * options.metric_at
     few = draws < DRAWS_PER_DIM * n_params
-    rule = {"log_positive": piled, "sqrt_at_zero": piled, "metric_windows": 3 if few else 2}
+    rule = {"log_positive": piled or skewed, "sqrt_at_zero": piled or skewed,
+            "metric_windows": 3 if few else 2}
     chosen = {k: rule[k] for k in auto}
     why = []
     if {"log_positive", "sqrt_at_zero"} & set(auto):
         coords = ("sqrt for those, log for the others" if piled else
-                  f"linear coordinates (sqrt and log from {PILED_MIN} and {PILED_SHARE:.0%})")
+                  f"linear coordinates (sqrt and log from {PILED_MIN} and {PILED_SHARE:.0%}, "
+                  f"or a median mode/sd below {SKEWED_MEDIAN:g} of {SKEWED_MIN}+)")
+        if skewed and not piled:
+            coords = (f"their median mode/sd is {z_median:.1f}, skewed posteriors (below "
+                      f"{SKEWED_MEDIAN:g}): sqrt for those, log for the others")
         why.append(f"{n_near} of {n_at0} parameters bounded at 0 have their mode within a "
-                   f"Laplace sd of it: {coords}")
+                   f"Laplace sd of it; {coords}")
     if "metric_windows" in auto:
         why.append(f"{n_chains} chains x {options.metric_at} steps = {draws / n_params:.0f} "
                    f"draws per parameter in a metric window: {chosen['metric_windows']} windows "

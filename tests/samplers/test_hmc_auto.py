@@ -48,6 +48,29 @@ def test_many_parameters_at_a_bound_get_sqrt_and_those_far_from_it_log():
     assert s.chosen["why"].startswith("4 of 8 parameters bounded at 0")
 
 
+def test_skewed_positive_parameters_get_log_coordinates_even_when_none_is_at_the_bound():
+    """Twelve parameters with their mode 3 sd above their bound 0 (none near it, so not
+    piled): their posteriors are skewed (median mode/sd 3 < 6) and move as logs, as the
+    desert window's h (median 4.9) do; 10 sd above it (Case C's median is 9.1), or only a
+    few such parameters, they stay linear."""
+    s = _prepared(_bounded([3.0] * 12))
+    assert list(s.tlog) == [LOG] * 12
+    assert s.chosen["log_positive"] is True and "median mode/sd is 3" in s.chosen["why"]
+    for k_sd in ([10.0] * 12, [3.0] * 6):
+        s = _prepared(_bounded(k_sd))
+        assert not any(s.tlog) and s.chosen["log_positive"] is False
+
+
+@pytest.mark.parametrize("n_near, n_at0, z_median, on", [(5, 72, 4.9, True), (9, 112, 9.1, False),
+                                                          (65, 144, 1.3, True), (0, 0, 0.0, False)])
+def test_coordinates_from_the_field_windows_numbers(n_near, n_at0, z_median, on):
+    """The numbers measured at the MAP: the desert window (5 of 72 near 0, median 4.9) and the
+    Göttingen one (65 of 144) get sqrt and log, Case C (9 of 112, median 9.1) linear."""
+    opts, _ = resolve(HMCOptions(), n_params=n_at0 + 2, n_chains=16, n_at0=n_at0, n_near=n_near,
+                      z_median=z_median)
+    assert opts.log_positive is on and opts.sqrt_at_zero is on
+
+
 def test_a_small_problem_keeps_the_defaults():
     """One parameter of three at its bound (hmc's own truncated-normal tests), few parameters:
     linear coordinates and two metric windows, as before the rule."""

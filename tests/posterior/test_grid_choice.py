@@ -1,0 +1,92 @@
+"""The solver grid a case without ``[grid] kind`` gets (``"auto"``), and that ``fit`` says what
+it chose and why: deep sensors get the stretched grid, a shallow column the uniform one, a kind
+set by hand is neither changed nor reported."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from pavement_mcmc.cli import main
+from pavement_mcmc.data import load_case
+from pavement_mcmc.posterior import build_problem
+from pavement_mcmc.solver import STRETCH_DX_TOP
+
+DEPTHS_CM = (2, 5, 10, 20, 50)
+
+
+def _field_case(tmp_path, grid: str = "", bottom_cm: int = 50) -> str:
+    """A 24-h record of 30-min data with sensors at 2-50 cm (a damped daily wave) in the plain
+    Case C form: no [grid] (unless ``grid``), no [sampler.options]."""
+    t = np.arange(49) * 1800.0
+    w = 2 * np.pi / 86400.0
+    rows = ["time,T_air,q_net,wind," + ",".join(f"T_{d}cm" for d in DEPTHS_CM)]
+    for s in t:
+        temps = [10 + 5 * np.exp(-d / 11) * np.sin(w * s - d / 11) for d in DEPTHS_CM]
+        stamp = np.datetime64("2020-04-05T00:00:00") + np.timedelta64(int(s), "s")
+        rows.append(f"{stamp}Z,{10 + 6 * np.sin(w * s):.3f},{400 * max(np.sin(w * s), -0.2):.1f},"
+                    f"1.0," + ",".join(f"{v:.3f}" for v in temps))
+    (tmp_path / "m.csv").write_text("\n".join(rows) + "\n", encoding="utf-8")
+    observed = [d for d in DEPTHS_CM if d < bottom_cm]
+    text = f"""name = "plain"
+[data]
+csv = "m.csv"
+sigma = 0.1
+observed_cm = {observed}
+bottom_cm = {bottom_cm}
+[model]
+h = {{ kind = "per_interval", smooth = true }}
+{grid}
+[parameters.kappa]
+value = 1.0
+prior = {{ dist = "truncnormal", mean = 1.0, sd = 0.5 }}
+[parameters.C]
+value = 2.0e6
+prior = {{ dist = "truncnormal", mean = 2.0e6, sd = 0.7e6 }}
+[parameters.h]
+value = 10.0
+prior = {{ dist = "flat" }}
+[parameters.gamma]
+prior = {{ dist = "rayleigh", scale = 2.22 }}
+[sampler]
+kind = "hmc"
+seed = 1
+"""
+    path = tmp_path / "plain.toml"
+    path.write_text(text, encoding="utf-8")
+    return str(path)
+
+
+def test_deep_sensors_get_the_stretched_grid_and_the_reason(tmp_path):
+    """A 50 cm bottom boundary: stretched (4 mm at the top, nodes at the sensors), and the
+    problem says so; a shallow (5 cm) column gets the uniform 5 mm grid."""
+    pb = build_problem(load_case(_field_case(tmp_path)))
+    g = pb.grid_chosen
+    assert g["kind"] == "stretched" and "50 cm is deeper than 10 cm" in g["why"]
+    assert g["nodes"] == pb.model.grid.n_nodes < 50  # a uniform 5 mm grid would have 101
+    assert g["top_mm"] == pytest.approx(1e3 * STRETCH_DX_TOP, rel=0.2) and g["deep_mm"] > 10
+    assert g["steps_per_interval"] == 7
+    assert np.all(np.isin(np.array(DEPTHS_CM[:-1]) / 100, np.round(pb.model.grid.x, 9)))
+    shallow = build_problem(load_case(_field_case(tmp_path, bottom_cm=5)))
+    assert shallow.grid_chosen["kind"] == "uniform" and shallow.grid_chosen["top_mm"] == 5.0
+
+
+def test_a_grid_kind_set_by_hand_is_kept_and_not_reported(tmp_path):
+    pb = build_problem(load_case(_field_case(tmp_path, grid='[grid]\nkind = "uniform"')))
+    assert pb.grid_chosen == {} and pb.model.grid.n_nodes == 101
+
+
+def test_fit_prints_and_records_the_grid_it_chose(tmp_path, capsys):
+    """The command line prints the chosen grid beside the sampler's chosen options; result.json
+    keeps it (fails before the grid choice was returned: nothing was printed)."""
+    case = _field_case(tmp_path)
+    main(["fit", case, "--out", str(tmp_path / "run"), "--no-progress",
+          "--set", "sampler.max_steps=3", "--set", "sampler.n_walkers=4"])
+    out = capsys.readouterr().out
+    line = next(x for x in out.splitlines() if x.startswith("grid chosen:"))
+    assert "stretched" in line and "deeper than 10 cm" in line
+    assert "sampler options chosen:" in out
+    rec = json.loads((tmp_path / "run" / "result.json").read_text())
+    assert rec["grid_chosen"]["kind"] == "stretched"
