@@ -37,7 +37,10 @@ from .ranking import rank_missing_effects
 def _true_values(cfg, effects: list[str]):
     """The true model's problem (true h per interval) and its true parameter values."""
     truth = json.loads(Path(cfg.truth_path).read_text())
-    pb = build_problem(cfg, extensions=list(effects), h_spec={"kind": "per_interval", "smooth": False})
+    smooth = "gamma" in cfg.parameters  # a case with a smoothness prior names its gamma
+    # input noise linearised at the parameters' values (no MAP fit): only predictions are used
+    pb = build_problem(cfg, extensions=list(effects),
+                       h_spec={"kind": "per_interval", "smooth": smooth}, input_noise={})
     vals = {k: float(v[0]) for k, v in pb.space.values().items()}
     vals.update(kappa=truth["kappa"], C=truth["C"])
     h = np.asarray(truth["h_true_obs"])
@@ -66,6 +69,16 @@ def truth_forecast_rmse(cfg, effects: list[str], rule: str = "diurnal") -> float
     known = {k: v for k, v in vals.items() if k in train.space}
     r, _, _ = held_out(pb, future_values(pb, train, known, rule), n_train, pb.meas.n_obs - 1)
     return float(np.sqrt(np.mean(r**2)))
+
+
+def _entry_record(e) -> dict:
+    """What the claim rule reads of one candidate (re-applying a rule to stored records)."""
+    return {"F": round(e.forecast_gain, 3), "plugin_F": round(e.plugin_gain, 3),
+            "S": round(e.score, 2), "D": round(e.data_score, 2),
+            "fc_rmse_sigma": round(e.forecast_rmse_sigma, 4), "share": round(e.forecast_share, 4),
+            "excess_share": round(e.excess_share, 4), "rmse_sigma": round(e.rmse_sigma, 4),
+            "rho": round(e.rho, 3), "at_bound": list(e.at_bound), "profile": e.profile,
+            "detected": e.detected, "explains": e.explains, "partial": e.partial}
 
 
 def diagnose_twin(twin, directory: str | Path, *, forecast: bool = False,
@@ -98,9 +111,11 @@ def diagnose_twin(twin, directory: str | Path, *, forecast: bool = False,
             rec.update(refit_rmse=e.rmse, true_rmse=ideal, rmse_ratio=e.rmse / ideal,
                        data_score=e.data_score)
     if rk.forecast is not None:
-        rec.update(forecast_rmse_sigma=rk.forecast.rmse_sigma,
+        rec.update(forecast_rmse_sigma=rk.forecast.rmse_sigma, forecast_rho=rk.forecast.rho,
+                   forecast_n=rk.forecast.n,
                    gains={e.name: round(e.forecast_gain, 2) for e in rk.entries},
-                   forecast_shares={e.name: round(e.forecast_share, 3) for e in rk.entries})
+                   forecast_shares={e.name: round(e.forecast_share, 3) for e in rk.entries},
+                   entries={e.name: _entry_record(e) for e in rk.entries})
         if not twin.hidden:
             ideal = truth_forecast_rmse(cfg, [], rk.forecast.rule)
             rec.update(truth_forecast_rmse=ideal, forecast_ratio=rk.forecast.rmse / ideal)

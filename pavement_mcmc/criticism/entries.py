@@ -173,6 +173,8 @@ class Entry:
     forecast : the candidate's :class:`~.forecast.Forecast` (forecast rule only; not serialised).
     forecast_gain : its gain :math:`F_c` over the base forecast; ``forecast_share`` the share of
         the base forecast's excess error it removes (None without the forecast rule).
+    plugin_gain : the gain by the plug-in density with the measurement sd
+        (:func:`~.forecast.plugin_gain`), a supporting figure.
     threshold, data_threshold : the claim thresholds.
     fit : the refit (not serialised).
     """
@@ -200,6 +202,7 @@ class Entry:
     forecast_gain: float | None = None
     forecast_share: float | None = None
     forecast_rmse_sigma: float | None = None
+    plugin_gain: float | None = None
     threshold: float = THRESHOLD
     data_threshold: float = DATA_THRESHOLD
     fit: Fit | None = field(default=None, repr=False)

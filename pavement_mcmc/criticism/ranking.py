@@ -70,7 +70,7 @@ from .entries import (
 )
 from .fitting import Fit, refit
 from .forecast import forecast as forecast_skill
-from .forecast import forecast_gain, forecast_share
+from .forecast import forecast_gain, forecast_share, plugin_gain
 from .holdout import leave_one_sensor_out
 from .residuals import ResidualReport, analyse_point, noise_like, plain_signals
 from .unexplained import unexplained
@@ -295,6 +295,7 @@ def _forecasts(base: Fit, entries: list[Entry], options: bool | dict):
         fc = forecast_skill(e.fit.problem, e.fit.values(), **opts)
         e.forecast = fc
         e.forecast_gain = forecast_gain(fb, fc)
+        e.plugin_gain = plugin_gain(fb, fc)
         e.forecast_share = forecast_share(fb, fc, FLOOR)
         e.forecast_rmse_sigma = fc.rmse_sigma
     return fb
