@@ -114,3 +114,50 @@ def test_a_sun_warmed_surface_sensor_is_not_claimed(tmp_path):
     e = rk.entries[0]
     assert e.data_score > 20 and e.score > 10  # what the in-sample rule claimed
     assert rk.best is None and not e.detected, rk.verdict
+
+
+def _fc(errors: np.ndarray, sd: float = 0.2):
+    """A Forecast of the held-out errors ``errors`` (rows, sensors) scored with plug-in sd ``sd``."""
+    from pavement_mcmc.criticism.forecast import Forecast
+    from pavement_mcmc.criticism.residuals import pooled_lag1
+
+    lp = -0.5 * (errors / sd) ** 2 - np.log(sd) - 0.5 * np.log(2 * np.pi)
+    rmse = float(np.sqrt(np.mean(errors**2)))
+    z = np.zeros(0)
+    return Forecast("diurnal", [30.0], 10.0, rmse, rmse / sd, [], float(lp.mean()),
+                    float(lp.sum()), float(pooled_lag1(errors)), errors.size, z, z, z)
+
+
+def test_the_forecast_gain_does_not_grow_with_the_unknown_future_h():
+    """The gain is the likelihood ratio of the held-out errors with their variance profiled out:
+    a candidate that removes 5 % of the forecast's mean square error gains n_eff log(1/0.95)
+    whether the errors are 1 sigma or 2.2 sigma (a clean twin's forecast, mostly the unknown
+    future h). The plug-in density with the measurement sd reads the second as a gain 5 times
+    larger (F = 18 for the first clean twin of the campaign: a false claim)."""
+    from pavement_mcmc.criticism.forecast import forecast_gain
+
+    rng = np.random.default_rng(5)
+    e = rng.standard_normal((20, 5))
+    for scale in (0.2, 0.44):  # forecast errors of 1 and 2.2 sigma
+        base, cand = _fc(scale * e), _fc(scale * np.sqrt(0.95) * e)
+        phi = (1 + base.rho) / (1 - base.rho)
+        assert forecast_gain(base, cand) == pytest.approx(100 / phi * np.log(1 / 0.95), rel=1e-9)
+        assert forecast_gain(base, base) == 0.0
+    from pavement_mcmc.criticism.forecast import plugin_gain
+
+    big = plugin_gain(_fc(0.44 * e), _fc(0.44 * np.sqrt(0.95) * e))
+    small = plugin_gain(_fc(0.2 * e), _fc(0.2 * np.sqrt(0.95) * e))
+    assert big / small == pytest.approx(0.44**2 / 0.2**2, rel=1e-9)
+
+
+def test_the_true_model_fits_a_case_c_twin_to_the_noise(tmp_path):
+    """The campaign's truth (true model, true parameters, true h per interval) on a Case C twin
+    with input noise: the case names a smoothness precision ``gamma``, which a problem without
+    the smoothness prior refused (every clean twin's record failed). Its RMSE is about the
+    noise sd, and its forecast is finite."""
+    from pavement_mcmc.criticism.campaign import true_rmse, truth_forecast_rmse
+
+    twin = forecast_twins((), (601,), hours=16.0, input_sigma=True)[0]
+    cfg = load_case(write_twin(twin, tmp_path / twin.name))
+    assert 0.8 * 0.2 < true_rmse(cfg, []) < 1.3 * 0.2
+    assert np.isfinite(truth_forecast_rmse(cfg, []))
