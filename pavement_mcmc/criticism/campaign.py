@@ -89,7 +89,9 @@ def diagnose_twin(twin, directory: str | Path, *, forecast: bool = False,
     cfg = load_case(write_twin(twin, Path(directory) / twin.name))
     problem = build_problem(cfg)
     base = refit(problem)
-    rk = rank_missing_effects(problem, base.values(), candidates, holdout=False, forecast=forecast)
+    # the rule as `diagnose` applies it: look-alikes ordered by leave-one-sensor-out (it costs
+    # refits only when two claimable candidates score alike)
+    rk = rank_missing_effects(problem, base.values(), candidates, holdout=True, forecast=forecast)
     rec = {
         "twin": twin.name,
         "category": twin.category,
@@ -98,6 +100,7 @@ def diagnose_twin(twin, directory: str | Path, *, forecast: bool = False,
         "partial": bool(rk.best is not None and rk.best.partial),
         "none_of_these": rk.none_of_these,
         "first": rk.entries[0].name if rk.entries else None,
+        "lookalikes": rk.lookalikes,
         "base_rmse_sigma": base.rmse_sigma,
         "verdict": rk.verdict,
     }
