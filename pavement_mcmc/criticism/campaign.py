@@ -142,18 +142,17 @@ def forecast_campaign_twins(n_clean: int = 40, n_effect: int = 10, n_off: int = 
                             hours: float = 40.0, input_sigma: bool = True) -> list:
     """The forecast rule's calibration twins (:func:`~pavement_mcmc.synthetic.corpus.forecast_twins`):
     ``n_clean`` clean, ``n_effect`` of each :data:`FORECAST_CATALOGUE` effect, ``n_off`` of each
-    :data:`FORECAST_OFF` effect, interleaved (one round of every kind per seed) so that a run cut
-    short still covers every kind."""
+    :data:`FORECAST_OFF` effect, interleaved in proportion: the i-th of a category's n twins
+    (in rounds of one seed of every effect) comes at (i + 1/2) / n of the run, so a run cut short
+    holds the same share of every category and of every effect."""
     kw = {"hours": hours, "input_sigma": input_sigma}
-    out = []
-    for k in range(max(n_clean, n_effect, n_off)):
-        if k < n_clean:
-            out += forecast_twins((), (600 + k,), **kw)
-        if k < n_effect:
-            out += forecast_twins(FORECAST_CATALOGUE, (700 + k,), **kw)
-        if k < n_off:
-            out += forecast_twins(FORECAST_OFF, (800 + k,), **kw)
-    return out
+    groups = [
+        [t for k in range(n_clean) for t in forecast_twins((), (600 + k,), **kw)],
+        [t for k in range(n_effect) for t in forecast_twins(FORECAST_CATALOGUE, (700 + k,), **kw)],
+        [t for k in range(n_off) for t in forecast_twins(FORECAST_OFF, (800 + k,), **kw)],
+    ]
+    keyed = [((i + 0.5) / len(g), j, t) for j, g in enumerate(groups) for i, t in enumerate(g)]
+    return [t for *_, t in sorted(keyed, key=lambda x: x[:2])]
 
 
 def rates(records: list[dict]) -> dict:
