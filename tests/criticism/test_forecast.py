@@ -73,7 +73,7 @@ def _rank(tmp_path, effect, candidates, seed=501):
 def test_a_law_that_forecasts_is_claimed(tmp_path, effect):
     """A wind-driven h fitted in Case C form (one h per interval): in sample the free h(t)
     absorbs it (measured on seed 501: D = -112, the in-sample rule claims nothing), but only
-    the law forecasts the held-out 8 h (RMSE 1.46 -> 1.14 sigma, F = 56)."""
+    the law forecasts the held-out 8 h (RMSE 1.46 -> 1.14 sigma, F = 33)."""
     rk = _rank(tmp_path, effect, [effect, "two_layer"])
     assert rk.best is not None and rk.best.name == effect, rk.verdict
     assert rk.best.forecast_rmse_sigma < rk.forecast.rmse_sigma
@@ -127,7 +127,7 @@ def test_forecast_rule_campaign(tmp_path):
 def test_a_sun_warmed_surface_sensor_is_not_claimed(tmp_path):
     """Off-catalogue: the surface sensor reads warm in the sun. In sample two_layer passes the
     old rule (measured on seed 501: S = 75, D = 62, the issue's false "partly"); it forecasts
-    the held-out 8 h worse (F = -11), so the forecast rule does not claim it."""
+    the held-out 8 h worse (F = -7), so the forecast rule does not claim it."""
     rk = _rank(tmp_path, "sensor_sun", ["two_layer"])
     e = rk.entries[0]
     assert e.data_score > 20 and e.score > 10  # what the in-sample rule claimed
