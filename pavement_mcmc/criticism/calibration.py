@@ -16,7 +16,7 @@ from __future__ import annotations
 
 from scipy import stats
 
-from .entries import THRESHOLD
+from .entries import FORECAST_THRESHOLD, THRESHOLD
 
 #: the margins tried, smallest first (the rule's :data:`~.entries.FORECAST_THRESHOLD` is 10)
 MARGINS = (10.0, 15.0, 20.0, 30.0, 40.0)
@@ -35,15 +35,27 @@ def binomial_interval(k: int, n: int, level: float = 0.95) -> tuple[float, float
     return lo, hi
 
 
+def _forecasts_better(e: dict, margin: float) -> bool:
+    return e["F"] > margin and e["S"] >= -THRESHOLD and not e["at_bound"] and not e["profile"]
+
+
+def _plausibility(e: dict) -> bool:
+    """A plausibility claim (:attr:`~.entries.Entry.plausibility_claim`); records without the
+    flag: claimable but not by its forecast at the rule's margin."""
+    if "plausibility" in e:
+        return bool(e["plausibility"])
+    return bool(e["detected"]) and not _forecasts_better(e, FORECAST_THRESHOLD)
+
+
 def claim_at(record: dict, margin: float) -> str | None:
     """The candidate the forecast rule claims in ``record`` with margin ``margin`` (None: no
     claim): the largest gain ``F > margin`` among candidates that fit no worse in sample (``S
     >= -THRESHOLD``), with no own parameter at a bound and no coherent offset profile, kept if
-    it explains the misfit or is a partial claim."""
-    ok = {n: e for n, e in record["entries"].items()
-          if e["F"] > margin and e["S"] >= -THRESHOLD and not e["at_bound"] and not e["profile"]}
-    if not ok:
-        return None
+    it explains the misfit or is a partial claim; without such a candidate, a plausibility
+    claim (the forecast rule of :func:`~.ranking.claim_order`)."""
+    ok = {n: e for n, e in record["entries"].items() if _forecasts_better(e, margin)}
+    if not ok:  # a plausibility claim (an impossible base fit brought into range) decides
+        return next((n for n, e in record["entries"].items() if _plausibility(e)), None)
     name = max(ok, key=lambda n: ok[n]["F"])
     if record.get("claimed") in ok and record["claimed"] in record.get("lookalikes", ()):
         name = record["claimed"]  # the tie-break's choice among look-alikes

@@ -78,7 +78,8 @@ def _entry_record(e) -> dict:
             "fc_rmse_sigma": round(e.forecast_rmse_sigma, 4), "share": round(e.forecast_share, 4),
             "excess_share": round(e.excess_share, 4), "rmse_sigma": round(e.rmse_sigma, 4),
             "rho": round(e.rho, 3), "at_bound": list(e.at_bound), "profile": e.profile,
-            "detected": e.detected, "explains": e.explains, "partial": e.partial}
+            "detected": e.detected, "explains": e.explains, "partial": e.partial,
+            "plausibility": e.plausibility_claim}
 
 
 def diagnose_twin(twin, directory: str | Path, *, forecast: bool = False,

@@ -21,7 +21,7 @@ def test_the_exact_binomial_interval():
 
 def _entry(F, S=0.0, at_bound=(), profile=False, explains=True, partial=False):
     return {"F": F, "S": S, "at_bound": list(at_bound), "profile": profile,
-            "explains": explains, "partial": partial}
+            "explains": explains, "partial": partial, "detected": False}
 
 
 def _rec(twin, category, hidden, **entries):
@@ -54,3 +54,37 @@ def test_the_margin_is_chosen_on_even_seeds_and_measured_on_odd_ones():
     at = rates_at(clean + wind + off, 15.0)
     assert at["effects"]["wind_convection"]["k"] == 2 and at["off_no_claim"]["k"] == 0
     assert at["off_claims"] == {"forecast-sensor_sun-s800": "two_layer"}
+
+
+def _cand(name, F, *, restores=False, S=20.0):
+    from pavement_mcmc.criticism.entries import Entry
+
+    return Entry(name=name, description="", reference="base", score=S, data_score=S,
+                 delta_chi2=S, delta_prior=0.0, added_params=1.0, rho=0.1, rmse=0.2,
+                 rmse_sigma=1.0, rmse_sensors=[], evidence=[], values={},
+                 restores_plausibility=restores, forecast_gain=F, forecast_share=0.5)
+
+
+def test_under_the_forecast_rule_a_better_forecast_ranks_before_a_plausibility_claim():
+    """A campaign twin with a hidden surface layer: kappa(T) brought an impossible base kappa
+    and C into range (a plausibility claim) but forecast no better (F = 1.0), surface_layer
+    forecast better (F = 18.8): prediction comes first. The in-sample rule keeps the
+    plausibility claim first, and so does the forecast rule when nothing forecasts better."""
+    from pavement_mcmc.criticism.ranking import claim_order
+
+    kt, sl = _cand("conductivity_temperature", 1.0, restores=True), _cand("surface_layer", 18.8)
+    assert kt.detected and sl.detected
+    assert [e.name for e in claim_order([kt, sl])] == ["surface_layer", "conductivity_temperature"]
+    sl.forecast_gain = 5.0
+    assert [e.name for e in claim_order([sl, kt])][0] == "conductivity_temperature"
+    for e in (kt, sl):
+        e.forecast_gain = None
+    assert [e.name for e in claim_order([sl, kt])][0] == "conductivity_temperature"
+
+
+def test_a_stored_plausibility_claim_decides_only_without_a_better_forecast():
+    r = _rec("t", "catalogue", ["surface_layer"],
+             conductivity_temperature={**_entry(1.0), "plausibility": True},
+             surface_layer=_entry(18.8))
+    assert claim_at(r, 10.0) == "surface_layer"
+    assert claim_at(r, 20.0) == "conductivity_temperature"
