@@ -98,10 +98,11 @@ def test_an_evaporation_pulse_is_claimed_by_its_forecast(tmp_path):
     assert next(e for e in rank[1].entries if e.name == "evaporation").data_score < 20
 
 
-#: catalogue effects the forecast rule misses at 1x in the campaign (docs/VALIDATION.md §4):
-#: confounded with kappa, C and a free h(t) under loose priors, their forecasts gain little
+#: catalogue effects claimed on fewer than 7 of 10 campaign twins (docs/VALIDATION.md §4): the
+#: first three are confounded with kappa, C and a free h(t) under loose priors; the per-sensor
+#: ones and surface_layer gain little when the unknown future h dominates the forecast error
 KNOWN_MISSES = {"radiation_factor", "evapotranspiration", "conductivity_temperature",
-                "surface_layer"}
+                "surface_layer", "sensor_bias", "sensor_depth"}
 
 
 @pytest.mark.slow
