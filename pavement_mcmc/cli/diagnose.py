@@ -82,8 +82,8 @@ def _candidates(rk) -> list[str]:
         "",
         "Candidates (S = penalised misfit drop, autocorrelation-aware BIC; D = its data part, "
         "the misfit drop alone, never credited for fewer parameters; "
-        + ("F = forecast gain, 2 Δ(log predictive density) of the held-out period over its "
-           "effective count; " if fc else "")
+        + ("F = forecast gain, the held-out period's effective count times log(base forecast "
+           "MSE / candidate's); " if fc else "")
         + f"{rule}, or it brings an impossible fit back into range; "
         "~ prior-driven: S passes through Δprior or fewer parameters, not claimed; "
         "! a parameter of its own at a bound, or per-sensor offsets that line up with depth, "

@@ -37,7 +37,10 @@ from .ranking import rank_missing_effects
 def _true_values(cfg, effects: list[str]):
     """The true model's problem (true h per interval) and its true parameter values."""
     truth = json.loads(Path(cfg.truth_path).read_text())
-    pb = build_problem(cfg, extensions=list(effects), h_spec={"kind": "per_interval", "smooth": False})
+    smooth = "gamma" in cfg.parameters  # a case with a smoothness prior names its gamma
+    # input noise linearised at the parameters' values (no MAP fit): only predictions are used
+    pb = build_problem(cfg, extensions=list(effects),
+                       h_spec={"kind": "per_interval", "smooth": smooth}, input_noise={})
     vals = {k: float(v[0]) for k, v in pb.space.values().items()}
     vals.update(kappa=truth["kappa"], C=truth["C"])
     h = np.asarray(truth["h_true_obs"])
@@ -68,6 +71,17 @@ def truth_forecast_rmse(cfg, effects: list[str], rule: str = "diurnal") -> float
     return float(np.sqrt(np.mean(r**2)))
 
 
+def _entry_record(e) -> dict:
+    """What the claim rule reads of one candidate (re-applying a rule to stored records)."""
+    return {"F": round(e.forecast_gain, 3), "plugin_F": round(e.plugin_gain, 3),
+            "S": round(e.score, 2), "D": round(e.data_score, 2),
+            "fc_rmse_sigma": round(e.forecast_rmse_sigma, 4), "share": round(e.forecast_share, 4),
+            "excess_share": round(e.excess_share, 4), "rmse_sigma": round(e.rmse_sigma, 4),
+            "rho": round(e.rho, 3), "at_bound": list(e.at_bound), "profile": e.profile,
+            "detected": e.detected, "explains": e.explains, "partial": e.partial,
+            "plausibility": e.plausibility_claim}
+
+
 def diagnose_twin(twin, directory: str | Path, *, forecast: bool = False,
                   candidates: list[str] | None = None) -> dict:
     """Simulate ``twin`` into ``directory``, fit its case by MAP, rank the candidates (by the
@@ -76,7 +90,9 @@ def diagnose_twin(twin, directory: str | Path, *, forecast: bool = False,
     cfg = load_case(write_twin(twin, Path(directory) / twin.name))
     problem = build_problem(cfg)
     base = refit(problem)
-    rk = rank_missing_effects(problem, base.values(), candidates, holdout=False, forecast=forecast)
+    # the rule as `diagnose` applies it: look-alikes ordered by leave-one-sensor-out (it costs
+    # refits only when two claimable candidates score alike)
+    rk = rank_missing_effects(problem, base.values(), candidates, holdout=True, forecast=forecast)
     rec = {
         "twin": twin.name,
         "category": twin.category,
@@ -85,6 +101,7 @@ def diagnose_twin(twin, directory: str | Path, *, forecast: bool = False,
         "partial": bool(rk.best is not None and rk.best.partial),
         "none_of_these": rk.none_of_these,
         "first": rk.entries[0].name if rk.entries else None,
+        "lookalikes": rk.lookalikes,
         "base_rmse_sigma": base.rmse_sigma,
         "verdict": rk.verdict,
     }
@@ -98,9 +115,11 @@ def diagnose_twin(twin, directory: str | Path, *, forecast: bool = False,
             rec.update(refit_rmse=e.rmse, true_rmse=ideal, rmse_ratio=e.rmse / ideal,
                        data_score=e.data_score)
     if rk.forecast is not None:
-        rec.update(forecast_rmse_sigma=rk.forecast.rmse_sigma,
+        rec.update(forecast_rmse_sigma=rk.forecast.rmse_sigma, forecast_rho=rk.forecast.rho,
+                   forecast_n=rk.forecast.n,
                    gains={e.name: round(e.forecast_gain, 2) for e in rk.entries},
-                   forecast_shares={e.name: round(e.forecast_share, 3) for e in rk.entries})
+                   forecast_shares={e.name: round(e.forecast_share, 3) for e in rk.entries},
+                   entries={e.name: _entry_record(e) for e in rk.entries})
         if not twin.hidden:
             ideal = truth_forecast_rmse(cfg, [], rk.forecast.rule)
             rec.update(truth_forecast_rmse=ideal, forecast_ratio=rk.forecast.rmse / ideal)
@@ -124,18 +143,17 @@ def forecast_campaign_twins(n_clean: int = 40, n_effect: int = 10, n_off: int = 
                             hours: float = 40.0, input_sigma: bool = True) -> list:
     """The forecast rule's calibration twins (:func:`~pavement_mcmc.synthetic.corpus.forecast_twins`):
     ``n_clean`` clean, ``n_effect`` of each :data:`FORECAST_CATALOGUE` effect, ``n_off`` of each
-    :data:`FORECAST_OFF` effect, interleaved (one round of every kind per seed) so that a run cut
-    short still covers every kind."""
+    :data:`FORECAST_OFF` effect, interleaved in proportion: the i-th of a category's n twins
+    (in rounds of one seed of every effect) comes at (i + 1/2) / n of the run, so a run cut short
+    holds the same share of every category and of every effect."""
     kw = {"hours": hours, "input_sigma": input_sigma}
-    out = []
-    for k in range(max(n_clean, n_effect, n_off)):
-        if k < n_clean:
-            out += forecast_twins((), (600 + k,), **kw)
-        if k < n_effect:
-            out += forecast_twins(FORECAST_CATALOGUE, (700 + k,), **kw)
-        if k < n_off:
-            out += forecast_twins(FORECAST_OFF, (800 + k,), **kw)
-    return out
+    groups = [
+        [t for k in range(n_clean) for t in forecast_twins((), (600 + k,), **kw)],
+        [t for k in range(n_effect) for t in forecast_twins(FORECAST_CATALOGUE, (700 + k,), **kw)],
+        [t for k in range(n_off) for t in forecast_twins(FORECAST_OFF, (800 + k,), **kw)],
+    ]
+    keyed = [((i + 0.5) / len(g), j, t) for j, g in enumerate(groups) for i, t in enumerate(g)]
+    return [t for *_, t in sorted(keyed, key=lambda x: x[:2])]
 
 
 def rates(records: list[dict]) -> dict:

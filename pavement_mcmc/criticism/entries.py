@@ -40,7 +40,10 @@ One exception (the real-data issue): when the base fit is **physically impossibl
 outside every ground material, :func:`~pavement_mcmc.physics.materials.check_values`), a
 candidate that brings them back into range without a worse misfit
 (:math:`\chi^2_r - \chi^2_c \ge -` :data:`THRESHOLD`) is claimable even if its score comes
-through the priors: the impossible estimate is itself the evidence.
+through the priors: the impossible estimate is itself the evidence. Under the forecast rule a
+candidate that forecasts better by the margin ranks before it (:attr:`Entry.leads`): on a
+campaign twin with a hidden surface layer the base kappa and C were impossible and kappa(T),
+which brought them into range, was claimed with a forecast gain of 1.0 over surface_layer's 19.
 
 A candidate with one of its own parameters fitted **at a bound** is never claimed: it is a sign
 that the missing effect is none of the catalogue's (see :mod:`.unexplained`). Nor is a
@@ -173,6 +176,8 @@ class Entry:
     forecast : the candidate's :class:`~.forecast.Forecast` (forecast rule only; not serialised).
     forecast_gain : its gain :math:`F_c` over the base forecast; ``forecast_share`` the share of
         the base forecast's excess error it removes (None without the forecast rule).
+    plugin_gain : the gain by the plug-in density with the measurement sd
+        (:func:`~.forecast.plugin_gain`), a supporting figure.
     threshold, data_threshold : the claim thresholds.
     fit : the refit (not serialised).
     """
@@ -200,6 +205,7 @@ class Entry:
     forecast_gain: float | None = None
     forecast_share: float | None = None
     forecast_rmse_sigma: float | None = None
+    plugin_gain: float | None = None
     threshold: float = THRESHOLD
     data_threshold: float = DATA_THRESHOLD
     fit: Fit | None = field(default=None, repr=False)
@@ -224,6 +230,15 @@ class Entry:
         misfit (module doc)."""
         return (self.restores_plausibility and self.delta_chi2 >= -self.threshold
                 and not self.at_bound and not self.profile)
+
+    @property
+    def leads(self) -> bool:
+        """Ranked first among the claimable candidates: under the forecast rule one that
+        forecasts better (prediction first; a plausibility claim decides only when no candidate
+        forecasts better), under the in-sample rule a :attr:`plausibility_claim`."""
+        if self.forecast_gain is not None:
+            return self.forecasts_better and not self.at_bound and not self.profile
+        return self.plausibility_claim
 
     @property
     def detected(self) -> bool:

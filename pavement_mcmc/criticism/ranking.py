@@ -70,7 +70,7 @@ from .entries import (
 )
 from .fitting import Fit, refit
 from .forecast import forecast as forecast_skill
-from .forecast import forecast_gain, forecast_share
+from .forecast import forecast_gain, forecast_share, plugin_gain
 from .holdout import leave_one_sensor_out
 from .residuals import ResidualReport, analyse_point, noise_like, plain_signals
 from .unexplained import unexplained
@@ -253,10 +253,7 @@ def rank_missing_effects(
     for e in entries:
         e.threshold = threshold
     fbase = _forecasts(base, entries, forecast) if forecast is not False else None
-    # claimable candidates first (plausibility claims first among them, then by score), then
-    # the rest by score
-    entries.sort(key=lambda e: (not e.detected, not e.plausibility_claim,
-                                -(e.score if e.forecast_gain is None else e.forecast_gain)))
+    entries = claim_order(entries)
     lookalikes: list[str] = []
     if entries and entries[0].detected:
         def key(e):
@@ -265,7 +262,7 @@ def rank_missing_effects(
         top = key(entries[0])
         margin = max(threshold, 0.05 * top)
         close = [e for e in entries if e.detected and key(e) >= top - margin
-                 and e.plausibility_claim == entries[0].plausibility_claim]
+                 and e.leads == entries[0].leads]
         if len(close) > 1:
             lookalikes = [e.name for e in close]
             if holdout:
@@ -283,6 +280,14 @@ def rank_missing_effects(
                    points, fbase)
 
 
+def claim_order(entries: list[Entry]) -> list[Entry]:
+    """Claimable candidates first, those that :attr:`~.entries.Entry.leads` first among them
+    (plausibility claims under the in-sample rule, a better forecast under the forecast rule),
+    each group by score (forecast gain under the forecast rule); then the rest by score."""
+    return sorted(entries, key=lambda e: (not e.detected, not e.leads,
+                                          -(e.score if e.forecast_gain is None else e.forecast_gain)))
+
+
 def _forecasts(base: Fit, entries: list[Entry], options: bool | dict):
     """The base model's forecast, and each candidate's with its gain and share (forecast rule of
     :mod:`.entries`); None (in-sample rule) when the window is too short to hold a part out."""
@@ -295,6 +300,7 @@ def _forecasts(base: Fit, entries: list[Entry], options: bool | dict):
         fc = forecast_skill(e.fit.problem, e.fit.values(), **opts)
         e.forecast = fc
         e.forecast_gain = forecast_gain(fb, fc)
+        e.plugin_gain = plugin_gain(fb, fc)
         e.forecast_share = forecast_share(fb, fc, FLOOR)
         e.forecast_rmse_sigma = fc.rmse_sigma
     return fb

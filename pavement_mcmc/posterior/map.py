@@ -174,7 +174,8 @@ def parameter_scales(space, idx, theta0) -> np.ndarray:
 
 
 def find_map(posterior, theta0: np.ndarray | None = None, *, em_max_iter: int = 30,
-             em_tol: float = 1e-2, max_nfev: int = 200, log_positive: bool = True) -> Laplace:
+             em_tol: float = 1e-2, max_nfev: int = 200, log_positive: bool = True,
+             refine_tol: float = 1e-10) -> Laplace:
     """MAP by least squares (EM for a free smoothness precision) and the Laplace covariance.
 
     Parameters
@@ -187,6 +188,9 @@ def find_map(posterior, theta0: np.ndarray | None = None, *, em_max_iter: int = 
         theta``) and, after the least-squares fit, refine to the mode of the density of ``z``
         (which includes the Jacobian ``theta``); this keeps the Gaussian approximation away from
         the hard bound (Case C's night-time h sits at 0 in the plain MAP).
+    refine_tol : that refinement stops when a step lowers the objective by less than this
+        fraction of it (the criticism's refits, which compare objectives to within units, use
+        a looser one than the samplers' starts).
 
     Returns
     -------
@@ -200,7 +204,7 @@ def find_map(posterior, theta0: np.ndarray | None = None, *, em_max_iter: int = 
     z, gamma, msg, history = _em_fit(res_fn, w, z, em_max_iter, em_tol, max_nfev)
     theta_ls = res_fn.theta(z)[0]
     if w.logc.any():
-        z = refine_log(res_fn, z, gamma, w.lo_z, w.hi_z)
+        z = refine_log(res_fn, z, gamma, w.lo_z, w.hi_z, tol=refine_tol)
     K, B, cov_z, cov, note = _gauss_newton_covariance(res_fn, w, z, gamma)
     theta_map = res_fn.theta(z)[0]
     if w.g_free:

@@ -50,9 +50,10 @@ def expected_roughness(res_fn, idx, gmrf_cols, z, gamma) -> float:
     return float(Dh @ Dh + tr)
 
 
-def refine_log(res_fn, z, gamma, lo_z, hi_z, max_iter: int = 60):
+def refine_log(res_fn, z, gamma, lo_z, hi_z, max_iter: int = 60, tol: float = 1e-10):
     """Damped Gauss–Newton on ``F(z) = |r|^2/2 - sum_{log} z`` (the mode in log coordinates,
-    where the Jacobian of ``theta = exp(z)`` adds ``-z`` per log-transformed parameter)."""
+    where the Jacobian of ``theta = exp(z)`` adds ``-z`` per log-transformed parameter); stops
+    when a step lowers ``F`` by less than ``tol`` times ``max(1, |F|)``."""
     e = res_fn.logc.astype(float)
 
     def F(v):
@@ -78,7 +79,7 @@ def refine_log(res_fn, z, gamma, lo_z, hi_z, max_iter: int = 60):
             lam *= 10
         if not improved:
             break
-        conv = f - fn < 1e-10 * max(1.0, abs(f))
+        conv = f - fn < tol * max(1.0, abs(f))
         z, f, r = zn, fn, rn
         lam = max(lam / 10, 1e-12)
         if conv or np.max(np.abs(step)) < 1e-9:

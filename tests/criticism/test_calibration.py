@@ -1,0 +1,90 @@
+"""Calibrating the forecast rule's margin on stored records (criticism/calibration.py)."""
+
+from __future__ import annotations
+
+import pytest
+
+from pavement_mcmc.criticism.calibration import binomial_interval, calibrate, claim_at, rates_at
+
+
+def test_the_exact_binomial_interval():
+    """Clopper-Pearson in closed form at the ends: 0 of n gives [0, 1 - (a/2)^(1/n)]."""
+    lo, hi = binomial_interval(0, 20)
+    assert lo == 0.0 and hi == pytest.approx(1 - 0.025 ** (1 / 20), rel=1e-9)
+    lo, hi = binomial_interval(20, 20)
+    assert hi == 1.0 and lo == pytest.approx(0.025 ** (1 / 20), rel=1e-9)
+    lo, hi = binomial_interval(1, 20)
+    assert lo < 0.05 < hi and hi == pytest.approx(0.2487, abs=1e-4)
+    with pytest.raises(ValueError, match="0 <= k <= n"):
+        binomial_interval(3, 2)
+
+
+def _entry(F, S=0.0, at_bound=(), profile=False, explains=True, partial=False):
+    return {"F": F, "S": S, "at_bound": list(at_bound), "profile": profile,
+            "explains": explains, "partial": partial, "detected": False}
+
+
+def _rec(twin, category, hidden, **entries):
+    return {"twin": twin, "category": category, "hidden": hidden, "entries": entries}
+
+
+def test_a_claim_needs_the_margin_a_no_worse_fit_and_no_bound():
+    r = _rec("t", "clean", [], a=_entry(25.0, S=-30.0), b=_entry(18.0, at_bound=["x"]),
+             c=_entry(12.0), d=_entry(11.0, explains=False))
+    assert claim_at(r, 10.0) == "c"  # a fits worse in sample, b sits at a bound
+    assert claim_at(r, 15.0) is None
+    r["entries"]["d"]["F"] = 13.0  # the largest gain, but it neither explains nor is partial
+    assert claim_at(r, 10.0) is None
+    r["entries"]["d"]["partial"] = True
+    assert claim_at(r, 10.0) == "d"
+    r.update(claimed="c", lookalikes=["d", "c"])  # the tie-break chose c among look-alikes
+    assert claim_at(r, 10.0) == "c"
+
+
+def test_the_margin_is_chosen_on_even_seeds_and_measured_on_odd_ones():
+    clean = [_rec(f"forecast-clean-s{600 + k}", "clean", [], a=_entry(12.0 if k in (0, 2) else 3.0),
+                  b=_entry(25.0 if k == 1 else 1.0)) for k in range(8)]
+    wind = [_rec(f"forecast-wind_convection-s{700 + k}", "catalogue", ["wind_convection"],
+                 wind_convection=_entry(40.0 - 15 * k)) for k in range(3)]
+    off = [_rec("forecast-sensor_sun-s800", "off_catalogue", ["sensor_sun"], two_layer=_entry(16.0))]
+    got = calibrate(clean + wind + off, margins=(10.0, 15.0, 30.0), max_false=1 / 20)
+    assert got["calibration_false"][10.0] == (2, 4) and got["calibration_false"][15.0] == (0, 4)
+    assert got["margin"] == 15.0
+    assert got["evaluation_false"]["k"] == 1 and got["evaluation_false"]["n"] == 4  # seed 601
+    at = rates_at(clean + wind + off, 15.0)
+    assert at["effects"]["wind_convection"]["k"] == 2 and at["off_no_claim"]["k"] == 0
+    assert at["off_claims"] == {"forecast-sensor_sun-s800": "two_layer"}
+
+
+def _cand(name, F, *, restores=False, S=20.0):
+    from pavement_mcmc.criticism.entries import Entry
+
+    return Entry(name=name, description="", reference="base", score=S, data_score=S,
+                 delta_chi2=S, delta_prior=0.0, added_params=1.0, rho=0.1, rmse=0.2,
+                 rmse_sigma=1.0, rmse_sensors=[], evidence=[], values={},
+                 restores_plausibility=restores, forecast_gain=F, forecast_share=0.5)
+
+
+def test_under_the_forecast_rule_a_better_forecast_ranks_before_a_plausibility_claim():
+    """A campaign twin with a hidden surface layer: kappa(T) brought an impossible base kappa
+    and C into range (a plausibility claim) but forecast no better (F = 1.0), surface_layer
+    forecast better (F = 18.8): prediction comes first. The in-sample rule keeps the
+    plausibility claim first, and so does the forecast rule when nothing forecasts better."""
+    from pavement_mcmc.criticism.ranking import claim_order
+
+    kt, sl = _cand("conductivity_temperature", 1.0, restores=True), _cand("surface_layer", 18.8)
+    assert kt.detected and sl.detected
+    assert [e.name for e in claim_order([kt, sl])] == ["surface_layer", "conductivity_temperature"]
+    sl.forecast_gain = 5.0
+    assert [e.name for e in claim_order([sl, kt])][0] == "conductivity_temperature"
+    for e in (kt, sl):
+        e.forecast_gain = None
+    assert [e.name for e in claim_order([sl, kt])][0] == "conductivity_temperature"
+
+
+def test_a_stored_plausibility_claim_decides_only_without_a_better_forecast():
+    r = _rec("t", "catalogue", ["surface_layer"],
+             conductivity_temperature={**_entry(1.0), "plausibility": True},
+             surface_layer=_entry(18.8))
+    assert claim_at(r, 10.0) == "surface_layer"
+    assert claim_at(r, 20.0) == "conductivity_temperature"
