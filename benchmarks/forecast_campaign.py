@@ -88,6 +88,8 @@ def main(argv=None) -> int:
     ap.add_argument("--input-sigma", action="store_true")
     ap.add_argument("--rules", action="store_true")
     ap.add_argument("--report", action="store_true")
+    ap.add_argument("--seed-offset", type=int, default=0,
+                    help="shift every twin's seed (1000: a fresh campaign that replicates the rates)")
     args = ap.parse_args(argv)
     workdir = Path(tempfile.mkdtemp(prefix="forecast_campaign_"))
     if args.rules:
@@ -103,7 +105,7 @@ def main(argv=None) -> int:
         report(records)
         return 0
     for tw in forecast_campaign_twins(args.clean, args.per_effect, args.off, hours=args.hours,
-                                      input_sigma=args.input_sigma):
+                                      input_sigma=args.input_sigma, seed_offset=args.seed_offset):
         if tw.name in done:
             continue
         t0 = time.process_time()

@@ -140,17 +140,20 @@ FORECAST_OFF = ("sensor_sun", "sensor_lag", "shading", "buried_source")
 
 
 def forecast_campaign_twins(n_clean: int = 40, n_effect: int = 10, n_off: int = 3, *,
-                            hours: float = 40.0, input_sigma: bool = True) -> list:
+                            hours: float = 40.0, input_sigma: bool = True,
+                            seed_offset: int = 0) -> list:
     """The forecast rule's calibration twins (:func:`~pavement_mcmc.synthetic.corpus.forecast_twins`):
     ``n_clean`` clean, ``n_effect`` of each :data:`FORECAST_CATALOGUE` effect, ``n_off`` of each
     :data:`FORECAST_OFF` effect, interleaved in proportion: the i-th of a category's n twins
     (in rounds of one seed of every effect) comes at (i + 1/2) / n of the run, so a run cut short
-    holds the same share of every category and of every effect."""
+    holds the same share of every category and of every effect. ``seed_offset`` shifts every
+    seed (1000: a fresh campaign to replicate rates measured on the default seeds)."""
     kw = {"hours": hours, "input_sigma": input_sigma}
+    s0 = seed_offset
     groups = [
-        [t for k in range(n_clean) for t in forecast_twins((), (600 + k,), **kw)],
-        [t for k in range(n_effect) for t in forecast_twins(FORECAST_CATALOGUE, (700 + k,), **kw)],
-        [t for k in range(n_off) for t in forecast_twins(FORECAST_OFF, (800 + k,), **kw)],
+        [t for k in range(n_clean) for t in forecast_twins((), (s0 + 600 + k,), **kw)],
+        [t for k in range(n_effect) for t in forecast_twins(FORECAST_CATALOGUE, (s0 + 700 + k,), **kw)],
+        [t for k in range(n_off) for t in forecast_twins(FORECAST_OFF, (s0 + 800 + k,), **kw)],
     ]
     keyed = [((i + 0.5) / len(g), j, t) for j, g in enumerate(groups) for i, t in enumerate(g)]
     return [t for *_, t in sorted(keyed, key=lambda x: x[:2])]

@@ -88,3 +88,16 @@ def test_a_stored_plausibility_claim_decides_only_without_a_better_forecast():
              surface_layer=_entry(18.8))
     assert claim_at(r, 10.0) == "surface_layer"
     assert claim_at(r, 20.0) == "conductivity_temperature"
+
+
+def test_a_seed_offset_gives_a_fresh_campaign_of_the_same_kinds():
+    """The replication campaign (``--seed-offset 1000``) holds the same kinds in the same order
+    and shares no twin (no seed) with the calibration campaign."""
+    from pavement_mcmc.criticism.campaign import forecast_campaign_twins
+
+    a = forecast_campaign_twins(4, 1, 1)
+    b = forecast_campaign_twins(4, 1, 1, seed_offset=1000)
+    kind = [t.name.rsplit("-s", 1)[0] for t in a]
+    assert kind == [t.name.rsplit("-s", 1)[0] for t in b]
+    assert not {t.name for t in a} & {t.name for t in b}
+    assert [t.spec.seed + 1000 for t in a] == [t.spec.seed for t in b]
