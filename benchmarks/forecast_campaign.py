@@ -42,13 +42,14 @@ sys.path.insert(0, str(ROOT))
 
 import numpy as np  # noqa: E402
 
-from pavement_mcmc.criticism.calibration import calibrate  # noqa: E402
+from pavement_mcmc.criticism.calibration import calibrate, rates_at  # noqa: E402
 from pavement_mcmc.criticism.campaign import (  # noqa: E402
     diagnose_twin,
     forecast_campaign_twins,
     rates,
     truth_forecast_rmse,
 )
+from pavement_mcmc.criticism.entries import FORECAST_THRESHOLD  # noqa: E402
 from pavement_mcmc.synthetic.corpus import forecast_twins  # noqa: E402
 
 
@@ -125,6 +126,8 @@ def report(records: list[dict]) -> None:
     """The rates as run, the margin's calibration, the truth-forecast ratios, the CPU cost."""
     print(json.dumps(rates(records), indent=1))
     print(json.dumps(calibrate(records), indent=1))
+    print("the in-sample variant (claimed when nothing forecasts better; measured, not adopted):")
+    print(json.dumps(rates_at(records, FORECAST_THRESHOLD, insample=True), indent=1))
     clean = [r for r in records if r["category"] == "clean"]
     ratio = np.array([r["forecast_ratio"] for r in clean if "forecast_ratio" in r])
     if ratio.size:

@@ -16,7 +16,7 @@ from __future__ import annotations
 
 from scipy import stats
 
-from .entries import FORECAST_THRESHOLD, THRESHOLD
+from .entries import DATA_THRESHOLD, FORECAST_THRESHOLD, THRESHOLD
 
 #: the margins tried, smallest first (the rule's :data:`~.entries.FORECAST_THRESHOLD` is 10)
 MARGINS = (10.0, 15.0, 20.0, 30.0, 40.0)
@@ -47,13 +47,29 @@ def _plausibility(e: dict) -> bool:
     return bool(e["detected"]) and not _forecasts_better(e, FORECAST_THRESHOLD)
 
 
-def claim_at(record: dict, margin: float) -> str | None:
+def _insample(e: dict) -> bool:
+    """The in-sample rule's test, with a forecast that is no worse (the variant of
+    :func:`claim_at`): S and D pass their thresholds, F >= -THRESHOLD, nothing at a bound, no
+    coherent offset profile, and it explains the misfit or removes enough of it."""
+    return (e["S"] > THRESHOLD and e["D"] > DATA_THRESHOLD and e["F"] >= -THRESHOLD
+            and not e["at_bound"] and not e["profile"] and (e["explains"] or e["partial"]))
+
+
+def claim_at(record: dict, margin: float, insample: bool = False) -> str | None:
     """The candidate the forecast rule claims in ``record`` with margin ``margin`` (None: no
     claim): the largest gain ``F > margin`` among candidates that fit no worse in sample (``S
     >= -THRESHOLD``), with no own parameter at a bound and no coherent offset profile, kept if
     it explains the misfit or is a partial claim; without such a candidate, a plausibility
-    claim (the forecast rule of :func:`~.ranking.claim_order`)."""
+    claim (the forecast rule of :func:`~.ranking.claim_order`).
+
+    ``insample``: the variant measured, not adopted (docs/VALIDATION.md section 4): without a
+    forecast claim, the candidate of largest in-sample score that passes the in-sample rule and
+    forecasts no worse is claimed before a plausibility claim."""
     ok = {n: e for n, e in record["entries"].items() if _forecasts_better(e, margin)}
+    if not ok and insample:
+        ins = {n: e for n, e in record["entries"].items() if _insample(e)}
+        if ins:
+            return max(ins, key=lambda n: ins[n]["S"])
     if not ok:  # a plausibility claim (an impossible base fit brought into range) decides
         return next((n for n, e in record["entries"].items() if _plausibility(e)), None)
     name = max(ok, key=lambda n: ok[n]["F"])
@@ -67,16 +83,20 @@ def _rate(k: int, n: int) -> dict:
     return {"k": k, "n": n, "ci95": [round(lo, 3), round(hi, 3)]}
 
 
-def rates_at(records: list[dict], margin: float) -> dict:
+def rates_at(records: list[dict], margin: float, insample: bool = False) -> dict:
     """False claims on clean twins, claims of the hidden effect per catalogue effect and for the
-    surface family, and off-catalogue twins without a catalogue claim, at ``margin``."""
+    surface family, and off-catalogue twins without a catalogue claim, at ``margin`` (and with
+    the in-sample variant of :func:`claim_at` when ``insample``)."""
+    def claim(r):
+        return claim_at(r, margin, insample)
+
     by = {c: [r for r in records if r["category"] == c]
           for c in ("clean", "catalogue", "off_catalogue")}
-    false = [r["twin"] for r in by["clean"] if claim_at(r, margin) is not None]
+    false = [r["twin"] for r in by["clean"] if claim(r) is not None]
     effects = {}
     for eff in sorted({r["hidden"][0] for r in by["catalogue"]}):
         rs = [r for r in by["catalogue"] if r["hidden"][0] == eff]
-        effects[eff] = _rate(sum(claim_at(r, margin) == eff for r in rs), len(rs))
+        effects[eff] = _rate(sum(claim(r) == eff for r in rs), len(rs))
     surf = [r for r in by["catalogue"] if r["hidden"][0] in SURFACE]
     off = by["off_catalogue"]
     return {
@@ -84,10 +104,10 @@ def rates_at(records: list[dict], margin: float) -> dict:
         "false_claims": _rate(len(false), len(by["clean"])),
         "false_claim_twins": false,
         "effects": effects,
-        "surface": _rate(sum(claim_at(r, margin) == r["hidden"][0] for r in surf), len(surf)),
-        "off_no_claim": _rate(sum(claim_at(r, margin) is None for r in off), len(off)),
-        "off_claims": {r["twin"]: claim_at(r, margin) for r in off
-                       if claim_at(r, margin) is not None},
+        "surface": _rate(sum(claim(r) == r["hidden"][0] for r in surf), len(surf)),
+        "off_no_claim": _rate(sum(claim(r) is None for r in off), len(off)),
+        "off_claims": {r["twin"]: claim(r) for r in off
+                       if claim(r) is not None},
     }
 
 

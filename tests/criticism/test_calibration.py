@@ -19,8 +19,8 @@ def test_the_exact_binomial_interval():
         binomial_interval(3, 2)
 
 
-def _entry(F, S=0.0, at_bound=(), profile=False, explains=True, partial=False):
-    return {"F": F, "S": S, "at_bound": list(at_bound), "profile": profile,
+def _entry(F, S=0.0, at_bound=(), profile=False, explains=True, partial=False, D=0.0):
+    return {"F": F, "S": S, "D": D, "at_bound": list(at_bound), "profile": profile,
             "explains": explains, "partial": partial, "detected": False}
 
 
@@ -101,3 +101,16 @@ def test_a_seed_offset_gives_a_fresh_campaign_of_the_same_kinds():
     assert kind == [t.name.rsplit("-s", 1)[0] for t in b]
     assert not {t.name for t in a} & {t.name for t in b}
     assert [t.spec.seed + 1000 for t in a] == [t.spec.seed for t in b]
+
+
+def test_the_in_sample_variant_claims_only_what_forecasts_no_worse():
+    """The variant (measured, not adopted): without a forecast claim, the largest in-sample
+    score that passes S > 10 and D > 20 and forecasts no worse (F >= -10) is claimed."""
+    r = _rec("t", "catalogue", ["sensor_bias"], sensor_bias=_entry(0.5, S=300.0, D=290.0),
+             two_layer=_entry(-12.0, S=400.0, D=380.0), sensor_depth=_entry(2.0, S=50.0, D=15.0))
+    assert claim_at(r, 10.0) is None  # the adopted rule: no forecast gain passes the margin
+    assert claim_at(r, 10.0, insample=True) == "sensor_bias"  # two_layer forecasts worse
+    r["entries"]["sensor_bias"]["at_bound"] = ["bias_1"]
+    assert claim_at(r, 10.0, insample=True) is None  # sensor_depth's D is below 20
+    r["entries"]["wind"] = _entry(14.0, S=1.0)  # a forecast claim always comes first
+    assert claim_at(r, 10.0, insample=True) == "wind"
