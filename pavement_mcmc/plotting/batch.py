@@ -50,8 +50,7 @@ def plot_season(rows: list[dict], fig: Figure | None = None, title: str | None =
     fig, ax = _panels(rows, PANELS[:3], fig, title or "A season of daily windows", (8.0, 9.5),
                       extra="midday G/Rn (–)")
     if note:
-        fig.axes[0].text(0.01, 0.97, note, transform=fig.axes[0].transAxes, ha="left", va="top",
-                         fontsize=8, color="0.3")
+        fig.axes[0].set_title(note, fontsize=8, loc="left", color="0.3")
     keep = [r for r in rows if not math.isnan(r.get("G_Rn_midday", math.nan))]
     y = np.array([r["G_Rn_midday"] for r in keep])
     ax.plot([_when(r) for r in keep], y, ".-", color="0.25", lw=0.8, ms=4,

@@ -87,7 +87,7 @@ def test_season_figure_has_four_labelled_panels_and_breaks_at_failed_days():
             r[col], r[f"{col}_lo"], r[f"{col}_hi"] = ((math.nan,) * 3 if failed
                                                      else (v, 0.8 * v, 1.2 * v))
         rows.append(r)
-    fig = plot_season(rows, flux_label="G_surface (extras.csv)")
+    fig = plot_season(rows, flux_label="G_surface (extras.csv)", note="κ and C: their priors")
     axes = fig.axes
     assert len(axes) == 4
     assert [a.get_ylabel() for a in axes] == ["κ (W m⁻¹ K⁻¹)", "C (MJ m⁻³ K⁻¹)", "κ/C (mm² s⁻¹)",
@@ -98,6 +98,7 @@ def test_season_figure_has_four_labelled_panels_and_breaks_at_failed_days():
     labels = [t.get_text() for t in axes[3].get_legend().get_texts()]
     assert any("G_surface" in t for t in labels) and "1 failed" in fig._suptitle.get_text()
     assert any(t.get_text() == "not converged" for t in axes[0].get_legend().get_texts())
+    assert axes[0].get_title(loc="left") == "κ and C: their priors"
 
 
 @pytest.mark.skipif(not DESERT.is_file(), reason=f"the shared desert record is not here ({DESERT})")
