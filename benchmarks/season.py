@@ -64,9 +64,12 @@ def summarise(rows: list[dict], costs: list[dict], wall_s: float | None) -> dict
             key = f"{r['status']}: {str(r['reason'])[:90]}"
             reasons[key] = reasons.get(key, 0) + 1
     months: dict[str, list[float]] = {}
+    share: dict[str, list[float]] = {}
     for r in rows:
         if r["status"] != "failed" and r["start_time"]:
             months.setdefault(r["start_time"][:7], []).append(r["diffusivity"] * 1e6)
+        if r["start_time"] and r.get("G_Rn_midday", math.nan) == r.get("G_Rn_midday"):
+            share.setdefault(r["start_time"][:7], []).append(r["G_Rn_midday"])
     cpu, wall, mem = (_stats(c.get(k, math.nan) for c in costs)
                       for k in ("cpu_s", "elapsed_s", "peak_rss_mb"))
     units = STATIONS * DAYS
@@ -77,6 +80,7 @@ def summarise(rows: list[dict], costs: list[dict], wall_s: float | None) -> dict
            "diffusivity_mm2_s_by_month": {m: [round(float(np.median(v)), 3), round(min(v), 3),
                                               round(max(v), 3), len(v)] for m, v in months.items()},
            "G_Rn_midday": _stats(r.get("G_Rn_midday", math.nan) for r in rows),
+           "G_Rn_midday_median_by_month": {m: round(float(np.median(v)), 3) for m, v in share.items()},
            "cpu_s_per_unit": cpu, "wall_s_per_unit_on_a_worker": wall, "peak_rss_mb_per_unit": mem,
            "batch_wall_s": wall_s}
     if cpu:
