@@ -8,8 +8,9 @@ Reads the batch folder of ``pavement-mcmc batch runs/desert_daily.toml --window 
 finished units' ``unit.json``), adds the record's own midday G/Rn (``G_surface`` of the
 ``extras.csv`` beside the case's CSV over its ``q_net``: measured, not fitted), draws
 :func:`~pavement_mcmc.plotting.plot_season` and prints: units converged / not / failed (with the
-reasons), the July days, κ/C by month, the cost per unit (CPU s, wall s on a worker, peak
-resident memory) and the extrapolation to 1,000 stations × a year of daily windows. The wall
+reasons), the July days, κ/C by month, the cost per fitted unit (CPU s, wall s on a worker,
+peak resident memory; units refused by the data checks left out) and the extrapolation to
+1,000 stations × a year of daily windows. The wall
 time of the batch is ``--wall-seconds`` or ``ended - started`` (two files of epoch seconds the
 caller wrote into the folder).
 """
@@ -70,7 +71,8 @@ def summarise(rows: list[dict], costs: list[dict], wall_s: float | None) -> dict
             months.setdefault(r["start_time"][:7], []).append(r["diffusivity"] * 1e6)
         if r["start_time"] and r.get("G_Rn_midday", math.nan) == r.get("G_Rn_midday"):
             share.setdefault(r["start_time"][:7], []).append(r["G_Rn_midday"])
-    cpu, wall, mem = (_stats(c.get(k, math.nan) for c in costs)
+    fitted = {r["key"] for r in rows if r["status"] != "failed"}  # refused units cost ~0 s
+    cpu, wall, mem = (_stats(c.get(k, math.nan) for c in costs if c["key"] in fitted)
                       for k in ("cpu_s", "elapsed_s", "peak_rss_mb"))
     units = STATIONS * DAYS
     out = {"units": len(rows), "converged": status.count("ok"),

@@ -51,14 +51,14 @@ def plot_season(rows: list[dict], fig: Figure | None = None, title: str | None =
                       extra="midday G/Rn (–)")
     if note:
         fig.axes[0].set_title(note, fontsize=8, loc="left", color="0.3")
-    keep = [r for r in rows if not math.isnan(r.get("G_Rn_midday", math.nan))]
-    y = np.array([r["G_Rn_midday"] for r in keep])
-    ax.plot([_when(r) for r in keep], y, ".-", color="0.25", lw=0.8, ms=4,
+    y = np.array([r.get("G_Rn_midday", math.nan) for r in rows], float)  # nan: a break
+    ax.plot([_when(r) for r in rows], y, ".-", color="0.25", lw=0.8, ms=4,
             label=f"{flux_label} / net radiation, midday (Rn > half its daily maximum)")
-    if y.size:
-        ax.axhline(float(np.median(y)), color="C3", lw=0.8, ls="--",
-                   label=f"median over the season {np.median(y):.2f}")
-        ax.legend(fontsize=8, loc="best")
+    if np.isfinite(y).any():
+        med = float(np.nanmedian(y))
+        ax.axhline(med, color="C3", lw=0.8, ls="--", label=f"median over the season {med:.2f}")
+        ax.set_ylim(top=float(np.nanmax(y)) + 0.45 * float(np.nanmax(y) - np.nanmin(y)))
+        ax.legend(fontsize=8, loc="upper right")  # above the data: the headroom just made
     else:
         ax.text(0.5, 0.5, "no measured flux in these windows", transform=ax.transAxes,
                 ha="center", va="center", color="0.4")

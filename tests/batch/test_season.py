@@ -95,6 +95,8 @@ def test_season_figure_has_four_labelled_panels_and_breaks_at_failed_days():
     mean_line = [ln for ln in axes[2].get_lines() if ln.get_label().endswith("posterior mean")][0]
     y = np.asarray(mean_line.get_ydata(), float)
     assert np.isnan(y[3]) and y[0] == pytest.approx(0.39)  # the failed day breaks the line
+    flux_line = [ln for ln in axes[3].get_lines() if "G_surface" in ln.get_label()][0]
+    assert np.isnan(np.asarray(flux_line.get_ydata(), float)).sum() == 0  # every day measured
     labels = [t.get_text() for t in axes[3].get_legend().get_texts()]
     assert any("G_surface" in t for t in labels) and "1 failed" in fig._suptitle.get_text()
     assert any(t.get_text() == "not converged" for t in axes[0].get_legend().get_texts())
