@@ -5,11 +5,13 @@
   validation campaigns), :func:`connect`, :class:`Failure`, :class:`SchedulerLost`;
 - :mod:`.unit`: :func:`run_unit` (one ordinary run folder: fit, resume or read back) and its row;
 - :mod:`.table`: :func:`run_batch` and the batch table ``batch.csv``;
-- :mod:`.drift`: :func:`drift`, an estimate's trend and scatter over the windows.
+- :mod:`.drift`: :func:`drift`, an estimate's trend and scatter over the windows;
+- :mod:`.season`: :func:`season_rows`, the rows beside the record's measured midday G/Rn.
 """
 
 from .drift import Drift, drift
 from .engine import SCHEDULER_ENV, Failure, SchedulerLost, connect, default_workers, map_units
+from .season import G_RN, midday_ratio, season_rows
 from .table import COSTS, TABLE, read_table, run_batch, write_table
 from .unit import COLUMNS, run_unit, unit_row
 from .units import Unit, case_units, parse_duration, unit_seed, window_units
@@ -20,6 +22,7 @@ __all__ = [
     "Drift",
     "SCHEDULER_ENV",
     "TABLE",
+    "G_RN",
     "Failure",
     "SchedulerLost",
     "Unit",
@@ -28,10 +31,12 @@ __all__ = [
     "default_workers",
     "drift",
     "map_units",
+    "midday_ratio",
     "parse_duration",
     "read_table",
     "run_batch",
     "run_unit",
+    "season_rows",
     "unit_row",
     "unit_seed",
     "window_units",

@@ -13,9 +13,10 @@ from .units import Unit, check_unique
 
 #: the batch table in the output folder (reproducible: the same bytes for the same batch)
 TABLE = "batch.csv"
-#: what each unit cost (wall time s, the worker's peak resident memory MB while it ran)
+#: what each unit cost (wall time s, the worker's CPU time s, its peak resident memory MB while
+#: the unit ran)
 COSTS = "batch_costs.csv"
-COST_COLUMNS = ("key", "elapsed_s", "peak_rss_mb")
+COST_COLUMNS = ("key", "elapsed_s", "cpu_s", "peak_rss_mb")
 
 
 def run_batch(units: list[Unit], out: str | Path, *, seed: int = 0, scheduler: str | None = None,
@@ -44,7 +45,7 @@ def run_batch(units: list[Unit], out: str | Path, *, seed: int = 0, scheduler: s
 
 
 def _write_costs(units: list[Unit], results: list, path: Path) -> None:
-    """What each unit cost where it ran: wall time and the worker's peak memory (measured,
+    """What each unit cost where it ran: wall and CPU time and the worker's peak memory (measured,
     so it differs from run to run: kept out of the reproducible ``batch.csv``)."""
     with open(path, "w", newline="", encoding="utf-8") as fh:
         w = csv.writer(fh)

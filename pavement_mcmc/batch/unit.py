@@ -16,9 +16,11 @@
 The row is always computed from the stored chain, so a unit that was interrupted and resumed
 gives the same row, bit for bit, as one that ran straight through. A unit whose chain another
 live process is still writing (a worker orphaned by a lost scheduler finishing it) is waited
-for, not written twice. ``unit.json`` also records the unit's wall time and the worker's own
-peak resident memory while it ran (``peak_rss_mb``: the high-water mark reset at the unit's
-start, so neither an earlier unit nor the process the worker was forked from counts). Errors a user can fix
+for, not written twice. ``unit.json`` also records the unit's wall time, the worker process's
+CPU time (``cpu_s``: a unit's cost on a loaded machine, where wall time also counts waiting for
+a core) and the worker's own peak resident memory while it ran (``peak_rss_mb``: the
+high-water mark reset at the unit's start, so neither an earlier unit nor the process the
+worker was forked from counts). Errors a user can fix
 (bad window, bad config, missing data) come back as a row with ``status = "failed"`` and the
 reason; anything else propagates to Dask, which retries it.
 """
@@ -71,7 +73,7 @@ def run_unit(unit: Unit, out: str | Path, batch_seed: int = 0, *, max_seconds: f
            "start_h": unit.window_hours[0] if unit.window_hours else float("nan"),
            "end_h": unit.window_hours[1] if unit.window_hours else float("nan"),
            "run_dir": run_dir.name}  # relative to the batch folder: tables compare across folders
-    t0 = time.perf_counter()
+    t0, cpu0 = time.perf_counter(), time.process_time()
     _reset_peak_rss()
     try:
         if counter is not None:
@@ -84,7 +86,8 @@ def run_unit(unit: Unit, out: str | Path, batch_seed: int = 0, *, max_seconds: f
         row.update(status="failed", reason=f"{type(err).__name__}: {err}")
     row = {c: row.get(c, _EMPTY.get(c, float("nan"))) for c in COLUMNS}
     run_dir.mkdir(parents=True, exist_ok=True)
-    record = {**row, "elapsed_s": time.perf_counter() - t0, "peak_rss_mb": _peak_rss_mb()}
+    record = {**row, "elapsed_s": time.perf_counter() - t0,
+              "cpu_s": time.process_time() - cpu0, "peak_rss_mb": _peak_rss_mb()}
     tmp = done.with_name(f"{done.name}.{os.getpid()}.tmp")
     tmp.write_text(json.dumps(record, indent=1))
     os.replace(tmp, done)  # atomic: a unit is finished exactly when unit.json exists

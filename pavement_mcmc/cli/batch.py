@@ -111,7 +111,9 @@ def _costs_line(out: Path) -> str:
     rows = read_table(out / COSTS)
     mem = [r["peak_rss_mb"] for r in rows if r["peak_rss_mb"] == r["peak_rss_mb"]]
     secs = [r["elapsed_s"] for r in rows if r["elapsed_s"] == r["elapsed_s"]]
+    cpu = [r["cpu_s"] for r in rows if r.get("cpu_s", float("nan")) == r.get("cpu_s")]
     if not mem:
         return f"costs per unit: see {out / COSTS}"
-    return (f"per unit: {sum(secs) / len(secs):.1f} s on a worker on average, peak memory "
-            f"{max(mem):.0f} MB at most ({out / COSTS})")
+    return (f"per unit: {sum(secs) / len(secs):.1f} s on a worker on average"
+            + (f" ({sum(cpu) / len(cpu):.1f} CPU s)" if cpu else "")
+            + f", peak memory {max(mem):.0f} MB at most ({out / COSTS})")

@@ -8,7 +8,7 @@ Functions take arrays (or small result objects such as
 """
 
 from ._base import default_selection, display
-from .batch import plot_batch
+from .batch import plot_batch, plot_season
 from .chains import (
     plot_acceptance,
     plot_autocovariance,
@@ -38,6 +38,7 @@ __all__ = [
     "plot_identifiability",
     "plot_logp",
     "plot_segments",
+    "plot_season",
     "plot_sensitivity",
     "plot_urban",
 ]

@@ -1,4 +1,5 @@
-"""The batch figure: kappa, C, kappa/C and the window-mean h against time, with 95 % bands."""
+"""The batch figures: kappa, C, kappa/C and the window-mean h (or, for a season, the measured
+midday G/Rn) against time, with 95 % bands."""
 
 from __future__ import annotations
 
@@ -31,32 +32,52 @@ def plot_batch(rows: list[dict], fig: Figure | None = None, title: str | None = 
     out; units that did not converge are drawn with hollow markers. A panel whose column is
     empty for every unit (no h with a measured top) says so.
     """
-    fig = new_figure(fig, (8.0, 9.0))
-    axes = fig.subplots(len(PANELS), 1, sharex=True)
+    fig, _ = _panels(rows, PANELS, fig, title or "Batch estimates per window")
+    return fig
+
+
+def plot_season(rows: list[dict], fig: Figure | None = None, title: str | None = None,
+                flux_label: str = "measured surface flux", note: str | None = None) -> Figure:
+    """κ, C and κ/C of daily windows through a season, with the measured midday G/Rn below.
+
+    ``rows``: the batch table with the column ``G_Rn_midday``
+    (:func:`pavement_mcmc.batch.season_rows`: the record's own flux, not the fit's).
+    ``flux_label`` names that flux in the last panel's legend; ``note`` is written in the
+    first panel (e.g. that kappa and C rest on their priors). Failed units are left out of the
+    fitted panels and break their lines (the count is in the title); hollow markers: not
+    converged.
+    """
+    fig, ax = _panels(rows, PANELS[:3], fig, title or "A season of daily windows", (8.0, 9.5),
+                      extra="midday G/Rn (–)")
+    if note:
+        fig.axes[0].set_title(note, fontsize=8, loc="left", color="0.3")
+    y = np.array([r.get("G_Rn_midday", math.nan) for r in rows], float)  # nan: a break
+    ax.plot([_when(r) for r in rows], y, ".-", color="0.25", lw=0.8, ms=4,
+            label=f"{flux_label} / net radiation, midday (Rn > half its daily maximum)")
+    if np.isfinite(y).any():
+        med = float(np.nanmedian(y))
+        ax.axhline(med, color="C3", lw=0.8, ls="--", label=f"median over the season {med:.2f}")
+        ax.set_ylim(top=float(np.nanmax(y)) + 0.45 * float(np.nanmax(y) - np.nanmin(y)))
+        ax.legend(fontsize=8, loc="upper right")  # above the data: the headroom just made
+    else:
+        ax.text(0.5, 0.5, "no measured flux in these windows", transform=ax.transAxes,
+                ha="center", va="center", color="0.4")
+    return fig
+
+
+def _panels(rows: list[dict], panels, fig: Figure | None, title: str,
+            size: tuple[float, float] = (8.0, 9.0), extra: str | None = None):
+    """The fitted ``panels`` (column, scale, label) one above the other; with ``extra`` (its
+    y label) one more axis below, left for the caller. Returns the figure and the last axis."""
+    fig = new_figure(fig, size)
+    axes = fig.subplots(len(panels) + (extra is not None), 1, sharex=True)
+    if extra is not None:
+        axes[-1].set_ylabel(extra)
+        axes[-1].grid(alpha=0.3)
     sites = list(dict.fromkeys(r["site"] for r in rows))
-    colours = [f"C{i}" for i in range(10)]
-    for ax, (col, scale, label) in zip(axes, PANELS):
-        drawn = False
-        for i, site in enumerate(sites):
-            rs = [r for r in rows if r["site"] == site and r["status"] != "failed"
-                  and not math.isnan(r[col])]
-            if not rs:
-                continue
-            x = [_when(r) for r in rs]
-            y = np.array([r[col] for r in rs]) * scale
-            lo = np.array([r[f"{col}_lo"] for r in rs]) * scale
-            hi = np.array([r[f"{col}_hi"] for r in rs]) * scale
-            c = colours[i % len(colours)]
-            ax.fill_between(x, lo, hi, color=c, alpha=0.25, lw=0,
-                            label=f"{site}: 95 % interval" if len(sites) < 6 else None)
-            ax.plot(x, y, "-", color=c, lw=1.2, label=f"{site}: posterior mean")
-            ok = np.array([bool(r["converged"]) for r in rs])
-            xs = np.array(x, dtype=object)
-            ax.plot(list(xs[ok]), y[ok], "o", color=c, ms=4)
-            if (~ok).any():
-                ax.plot(list(xs[~ok]), y[~ok], "o", mfc="none", color=c, ms=5,
-                        label="not converged" if i == 0 else None)
-            drawn = True
+    for ax, (col, scale, label) in zip(axes, panels):
+        drawn = any([_draw_site(ax, rows, site, col, scale, f"C{i % 10}", i == 0, len(sites))
+                     for i, site in enumerate(sites)])
         ax.set_ylabel(label)
         ax.grid(alpha=0.3)
         if not drawn:
@@ -70,6 +91,30 @@ def plot_batch(rows: list[dict], fig: Figure | None = None, title: str | None = 
             lab.set_rotation(30)
             lab.set_ha("right")
     n_fail = sum(r["status"] == "failed" for r in rows)
-    fig.suptitle((title or "Batch estimates per window")
-                 + (f" ({n_fail} failed, not shown)" if n_fail else ""))
-    return fig
+    fig.suptitle(title + (f" ({n_fail} failed, not shown)" if n_fail else ""))
+    return fig, axes[-1]
+
+
+def _draw_site(ax, rows: list[dict], site: str, col: str, scale: float, c: str, first: bool,
+               n_sites: int) -> bool:
+    """One site's estimates of ``col`` with their 95 % band, the line broken where a unit failed
+    (a gap in a record is not bridged); False if it has none."""
+    rs = [r for r in rows if r["site"] == site]
+    ok = np.array([r["status"] != "failed" and not math.isnan(r.get(col, math.nan)) for r in rs])
+    if not ok.any():
+        return False
+    x = np.array([_when(r) for r in rs], dtype=object)
+
+    def col_of(name):
+        return np.array([r[name] if k else math.nan for r, k in zip(rs, ok)], float) * scale
+
+    y, lo, hi = col_of(col), col_of(f"{col}_lo"), col_of(f"{col}_hi")
+    ax.fill_between(list(x), lo, hi, color=c, alpha=0.25, lw=0,
+                    label=f"{site}: 95 % interval" if n_sites < 6 else None)
+    ax.plot(list(x), y, "-", color=c, lw=1.2, label=f"{site}: posterior mean")
+    conv = ok & np.array([bool(r["converged"]) for r in rs])
+    ax.plot(list(x[conv]), y[conv], "o", color=c, ms=4 if len(rs) < 60 else 2)
+    if (ok & ~conv).any():
+        ax.plot(list(x[ok & ~conv]), y[ok & ~conv], "o", mfc="none", color=c, ms=5,
+                label="not converged" if first else None)
+    return True

@@ -45,6 +45,9 @@ from scipy.special import erfcx
 LOG, SQRT = 1, 2
 #: floor of a log coordinate's value (a point exactly on the bound 0)
 _TINY = 1e-300
+#: the lower bound of a log coordinate: a leapfrog flung far below it reflects there instead of
+#: reaching x = exp(w) = 0 (underflow), which the solver refuses with an error that ended the fit
+_LOG_TINY = float(np.log(_TINY))
 
 
 class Coords:
@@ -81,16 +84,16 @@ class Coords:
         return x
 
     def bounds(self, lo: np.ndarray, hi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """The bounds ``(lo, hi)`` (d,) in the working coordinates (``LOG`` and ``SQRT`` ones
-        have ``lo = 0``); a finite upper one is the largest float that maps back to at most
-        ``hi`` (``exp(log hi)`` rounds above ``hi`` for about half of all values, e.g. 0.1 and
-        3), within 8 steps of one ulp: for a shifted sqrt with ``hi`` far below ``c``,
-        ``(w + sqrt c)^2 - c`` rounds with an error of about ``1e-16 c``, and ``hi`` can come
-        back up to that much above (3e-13 relative for ``hi = c / 1000``; the bounds of h are
-        hundreds of times ``c``)."""
+        """The bounds ``(lo, hi)`` (d,) in the working coordinates (``SQRT`` ones have
+        ``lo = 0``, ``LOG`` ones ``log 1e-300``, so that no point inside maps to ``x = 0``); a
+        finite upper one is the largest float that maps back to at most ``hi`` (``exp(log hi)``
+        rounds above ``hi`` for about half of all values, e.g. 0.1 and 3), within 8 steps of
+        one ulp: for a shifted sqrt with ``hi`` far below ``c``, ``(w + sqrt c)^2 - c`` rounds
+        with an error of about ``1e-16 c``, and ``hi`` can come back up to that much above
+        (3e-13 relative for ``hi = c / 1000``; the bounds of h are hundreds of times ``c``)."""
         lo, hi = np.array(lo, float), np.array(hi, float)
         r = self.r
-        for mask, fwd, back, low in ((self.lg, np.log, np.exp, -np.inf),
+        for mask, fwd, back, low in ((self.lg, np.log, np.exp, _LOG_TINY),
                                      (self.sq, lambda v: np.sqrt(v + r * r) - r,
                                       lambda v: (v + r) ** 2 - r * r, 0.0)):
             top = hi[mask]

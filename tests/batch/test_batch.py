@@ -201,6 +201,26 @@ def _hog(x):
     return float(big.sum())
 
 
+def test_a_units_cpu_time_is_recorded_apart_from_its_wall_time(tmp_path, monkeypatch):
+    """batch_costs.csv's cpu_s counts the worker's CPU, not the wait for a core: a unit that
+    sleeps 0.4 s and computes 0.2 s costs 0.6 s of wall time and about 0.2 s of CPU."""
+    from pavement_mcmc.batch import unit as unit_mod
+
+    def fake_sample(*args):
+        time.sleep(0.4)
+        t = time.process_time()
+        while time.process_time() - t < 0.2:
+            pass
+        return True
+
+    monkeypatch.setattr(unit_mod, "_sample_when_free", fake_sample)
+    monkeypatch.setattr(unit_mod, "unit_row", lambda run_dir: {"status": "ok"})
+    u = unit_mod.Unit("x@0-1h", str(tmp_path / "x.toml"), "x", (0.0, 1.0))
+    rec = unit_mod.run_unit(u, tmp_path)
+    assert rec["elapsed_s"] >= 0.6
+    assert 0.19 <= rec["cpu_s"] < 0.45, rec
+
+
 @pytest.mark.slow  # about 40 s: a worker started, killed and started again
 def test_a_worker_out_of_memory_is_reported_for_its_unit_and_the_others_run():
     """issue 24: a worker killed for its memory (the nanny's limit here; the kernel's OOM

@@ -245,8 +245,25 @@ def test_log_coordinates_never_step_over_a_finite_upper_bound():
     assert np.any(np.exp(np.log(hi[:6])) > hi[:6])  # the rounding the bound must avoid
     lo_w, hi_w = bounds_w(np.zeros(8), hi, tlog)
     assert np.all(to_x(hi_w[None], tlog)[0] <= hi)
-    assert np.all(lo_w[:7] == -np.inf) and lo_w[7] == 0.0 and hi_w[6] == np.inf and hi_w[7] == 7.0
+    assert np.all(lo_w[:7] == np.log(1e-300)) and lo_w[7] == 0.0 and hi_w[6] == np.inf
+    assert hi_w[7] == 7.0
     np.testing.assert_allclose(np.exp(hi_w[:6]), hi[:6], rtol=1e-15)
+
+
+def test_log_coordinates_keep_every_point_inside_the_bounds_positive():
+    """Every position inside the working bounds of a log coordinate maps to x > 0. With a lower
+    bound of -inf a divergent leapfrog (w about -800 on a daily desert window, where only kappa/C
+    is measured) underflowed to x = 0 and the solver's "kappa and C must be positive" ended the
+    fit (6 of 30 July days, runs/desert_daily.toml without upper bounds)."""
+    from pavement_mcmc.samplers.coords import LOG, bounds_w, to_w, to_x
+
+    kind = np.array([LOG, LOG])
+    lo_w, hi_w = bounds_w(np.zeros(2), np.array([3.0, np.inf]), kind)
+    w = np.array([[lo_w[0], lo_w[1]], [-800.0, -2000.0], [0.5, 700.0]])
+    inside = np.clip(w, lo_w, hi_w)
+    x = to_x(inside, kind)
+    assert np.all(x > 0.0) and np.all(np.isfinite(x))
+    np.testing.assert_allclose(to_w(x, kind)[:1], inside[:1], rtol=1e-12)
 
 
 def _central_grad(post, theta, rel=1e-6):
