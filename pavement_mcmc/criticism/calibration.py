@@ -16,10 +16,12 @@ from __future__ import annotations
 
 from scipy import stats
 
-from .entries import DATA_THRESHOLD, FORECAST_THRESHOLD, THRESHOLD
+from .entries import DATA_THRESHOLD, THRESHOLD
 
-#: the margins tried, smallest first (the rule's :data:`~.entries.FORECAST_THRESHOLD` is 10)
+#: the margins tried, smallest first (the rule's :data:`~.entries.FORECAST_THRESHOLD` is 15)
 MARGINS = (10.0, 15.0, 20.0, 30.0, 40.0)
+#: the margin of the records made before entries carried the ``plausibility`` flag
+UNFLAGGED_MARGIN = 10.0
 #: the catalogue effects that act at the surface (issue 22: claimed >= 80 % together)
 SURFACE = ("wind_convection", "evaporation", "evapotranspiration", "radiation_factor",
            "conductivity_temperature")
@@ -41,10 +43,11 @@ def _forecasts_better(e: dict, margin: float) -> bool:
 
 def _plausibility(e: dict) -> bool:
     """A plausibility claim (:attr:`~.entries.Entry.plausibility_claim`); records without the
-    flag: claimable but not by its forecast at the rule's margin."""
+    flag (the first campaign's): claimable but not by its forecast at the margin they were
+    made with, :data:`UNFLAGGED_MARGIN` (their ``detected`` was computed at it)."""
     if "plausibility" in e:
         return bool(e["plausibility"])
-    return bool(e["detected"]) and not _forecasts_better(e, FORECAST_THRESHOLD)
+    return bool(e["detected"]) and not _forecasts_better(e, UNFLAGGED_MARGIN)
 
 
 def _insample(e: dict) -> bool:

@@ -80,9 +80,11 @@ FLOOR = 1.1
 PARTIAL = 0.5
 
 
-#: forecast gain :math:`F_c` a candidate must pass under the forecast rule (module doc;
-#: measured on clean twins with ``benchmarks/forecast_campaign.py``)
-FORECAST_THRESHOLD = 10.0
+#: forecast gain :math:`F_c` a candidate must pass under the forecast rule (module doc): the
+#: smallest of :data:`~.calibration.MARGINS` with <= 1/20 false claims on the 40 even-seed clean
+#: twins of the two campaigns (``benchmarks/forecast_campaign.py``, seed offsets 0 and 1000);
+#: 10 gave 3 of 40 there and 4 of 80 on all, every one ``evaporation`` at F 10-13.4
+FORECAST_THRESHOLD = 15.0
 
 
 #: per-sensor nuisances: claimable only if their offsets are not one coherent depth profile

@@ -114,3 +114,14 @@ def test_the_in_sample_variant_claims_only_what_forecasts_no_worse():
     assert claim_at(r, 10.0, insample=True) is None  # sensor_depth's D is below 20
     r["entries"]["wind"] = _entry(14.0, S=1.0)  # a forecast claim always comes first
     assert claim_at(r, 10.0, insample=True) == "wind"
+
+
+def test_an_unflagged_records_forecast_detection_is_no_plausibility_claim_at_a_wider_margin():
+    """Records made before entries carried ``plausibility`` have ``detected`` computed at margin
+    10: an entry detected by F = 12 is no claim at margin 15 (it read as a plausibility claim
+    when the fallback used the rule's current margin)."""
+    e = _entry(12.0)
+    e["detected"] = True
+    r = _rec("t", "clean", [], evaporation=e)
+    assert claim_at(r, 10.0) == "evaporation"
+    assert claim_at(r, 15.0) is None

@@ -108,23 +108,25 @@ KNOWN_MISSES = {"radiation_factor", "evapotranspiration", "conductivity_temperat
 @pytest.mark.slow
 def test_forecast_rule_campaign(tmp_path):
     """Issue 22's calibration of the forecast rule (``benchmarks/forecast_campaign.py`` runs the
-    same twins resumably, ``--report`` prints this calibration): 40 clean twins, 10 of each
-    catalogue effect at 1x, 12 off-catalogue (sun-warmed surface sensor, sensor lag, shading,
-    buried source), Case C form, loose priors, input noise on. The margin is confirmed on the
-    clean twins of even seed; false claims <= 1/20 of the clean twins; every effect outside
-    :data:`KNOWN_MISSES` claimed on >= 7 of 10; the fitted true model forecasts within 10 % of
-    the truth-parameter forecast (median). The issue's surface-family (>= 80 %) and
-    off-catalogue (>= 9/10) targets are not met: docs/VALIDATION.md §4 says why."""
+    same twins resumably, ``--report`` prints this calibration), twice (seed offsets 0 and
+    1000): 80 clean twins, 20 of each catalogue effect at 1x, 24 off-catalogue (sun-warmed
+    surface sensor, sensor lag, shading, buried source), Case C form, loose priors, input
+    noise on. The margin is confirmed on the clean twins of even seed; false claims <= 1/20
+    of the clean twins; every effect outside :data:`KNOWN_MISSES` claimed on >= 70 %; the
+    fitted true model forecasts within 10 % of the truth-parameter forecast (median). The
+    issue's surface-family (>= 80 %) and off-catalogue (>= 9/10) targets are not met:
+    docs/VALIDATION.md §4 says why."""
     from pavement_mcmc.criticism.calibration import calibrate
     from pavement_mcmc.criticism.campaign import diagnose_twins, forecast_campaign_twins
     from pavement_mcmc.criticism.entries import FORECAST_THRESHOLD
 
-    records = diagnose_twins(forecast_campaign_twins(), tmp_path, forecast=True)
+    twins = forecast_campaign_twins() + forecast_campaign_twins(seed_offset=1000)
+    records = diagnose_twins(twins, tmp_path, forecast=True)
     cal = calibrate(records)
     assert cal["margin"] == FORECAST_THRESHOLD, cal["calibration_false"]
     got = cal["at_margin"]
     fa = got["false_claims"]
-    assert fa["n"] >= 40 and fa["k"] <= fa["n"] / 20, got["false_claim_twins"]
+    assert fa["n"] >= 80 and fa["k"] <= fa["n"] / 20, got["false_claim_twins"]
     missed = {e for e, c in got["effects"].items() if c["k"] < 0.7 * c["n"]}
     assert missed <= KNOWN_MISSES, got["effects"]
     ratio = [r["forecast_ratio"] for r in records if "forecast_ratio" in r]
