@@ -26,6 +26,7 @@ the seconds of one forecast (a MAP refit of the training part).
 from __future__ import annotations
 
 import argparse
+import gzip
 import json
 import os
 import sys
@@ -89,6 +90,9 @@ def main(argv=None) -> int:
     ap.add_argument("--input-sigma", action="store_true")
     ap.add_argument("--rules", action="store_true")
     ap.add_argument("--report", action="store_true")
+    ap.add_argument("--records", nargs="+", metavar="FILE",
+                    help="with --report: the record files to pool (.jsonl or .jsonl.gz; "
+                         "docs/campaign/ holds the two campaigns behind docs/VALIDATION.md)")
     ap.add_argument("--seed-offset", type=int, default=0,
                     help="shift every twin's seed (1000: a fresh campaign that replicates the rates)")
     args = ap.parse_args(argv)
@@ -103,7 +107,7 @@ def main(argv=None) -> int:
         done = {r["twin"]: r for r in map(json.loads, out.read_text().splitlines()) if r}
     records = list(done.values())
     if args.report:
-        report(records)
+        report([r for p in args.records for r in _load(Path(p))] if args.records else records)
         return 0
     for tw in forecast_campaign_twins(args.clean, args.per_effect, args.off, hours=args.hours,
                                       input_sigma=args.input_sigma, seed_offset=args.seed_offset):
@@ -120,6 +124,12 @@ def main(argv=None) -> int:
               f"{rec['none_of_these']}), {rec['cpu_seconds']} s cpu", flush=True)
     report(records)
     return 0
+
+
+def _load(path: Path) -> list[dict]:
+    """Campaign records of a JSON-lines file, gzip-compressed when it ends in .gz."""
+    with (gzip.open if path.suffix == ".gz" else open)(path, "rt", encoding="utf-8") as f:
+        return [json.loads(line) for line in f if line.strip()]
 
 
 def report(records: list[dict]) -> None:
