@@ -125,3 +125,26 @@ def test_an_unflagged_records_forecast_detection_is_no_plausibility_claim_at_a_w
     r = _rec("t", "clean", [], evaporation=e)
     assert claim_at(r, 10.0) == "evaporation"
     assert claim_at(r, 15.0) is None
+
+
+def test_the_shipped_campaign_records_choose_the_rules_margin():
+    """The two campaigns behind docs/VALIDATION.md section 4 (docs/campaign/, 284 twins),
+    re-read by today's rule code: the calibration chooses the rule's margin, with no false claim
+    on the 80 clean twins and wind convection claimed on all 20 of its twins."""
+    import gzip
+    import json
+    from pathlib import Path
+
+    from pavement_mcmc.criticism.entries import FORECAST_THRESHOLD
+
+    docs = Path(__file__).resolve().parents[2] / "docs" / "campaign"
+    records = []
+    for name in ("forecast_s0.jsonl.gz", "forecast_s1000.jsonl.gz"):
+        with gzip.open(docs / name, "rt", encoding="utf-8") as f:
+            records += [json.loads(line) for line in f if line.strip()]
+    got = calibrate(records)
+    assert got["margin"] == FORECAST_THRESHOLD, got["calibration_false"]
+    at = got["at_margin"]
+    assert (at["false_claims"]["k"], at["false_claims"]["n"]) == (0, 80)
+    wind = at["effects"]["wind_convection"]
+    assert (wind["k"], wind["n"]) == (20, 20)
