@@ -187,6 +187,7 @@ def load_case(
             preset=data.get("preset"),
             preset_options={k: data[k] for k in ("utc_offset_hours", "depths_cm", "timestamp")
                             if k in data},
+            forcing_optional=raw.get("model", {}).get("top") == "measured",
         )
     except ValueError as exc:
         exc.add_note(f"while loading the [data] section of {where}")

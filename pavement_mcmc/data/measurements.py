@@ -18,8 +18,8 @@ class Measurements:
     ----------
     t : (n_obs,) seconds since the window start; strictly increasing, ``t[0] == 0``.
     time0 : ISO 8601 UTC time of ``t == 0``.
-    T_air : (n_obs,) air temperature, degC.
-    q_net : (n_obs,) net radiation, W m-2, positive into the ground.
+    T_air : (n_obs,) air temperature, degC (NaN where missing: only with a measured top).
+    q_net : (n_obs,) net radiation, W m-2, positive into the ground (NaN likewise).
     wind : (n_obs,) wind speed, m s-1, or None.
     rain : (n_obs,) precipitation, mm per step, or None.
     depths : (n_sensors,) depths of the observed sensors, m, increasing.

@@ -58,7 +58,7 @@ from .times import format_time
 __all__ = ["DataError", "read_csv_case"]
 
 _ROLES = ("time", "T_air", "q_net", "wind", "rain")
-_REQUIRED = ("time", "T_air", "q_net")
+_FORCING = ("T_air", "q_net")  # required unless the top boundary is a measured sensor
 _DEPTH_RE = re.compile(r"^T_(\d+(?:\.\d*)?|\.\d+)cm$")
 _FLUX_RE = re.compile(r"^G_(\d+(?:\.\d*)?|\.\d+)cm$")
 #: |G| above this (W m-2) is rejected as physically implausible for a ground heat flux
@@ -77,6 +77,7 @@ def read_csv_case(
     extras: str | Path | None = None,
     preset: str | None = None,
     preset_options: Mapping | None = None,
+    forcing_optional: bool = False,
 ) -> Measurements:
     """Read a case CSV, validate it and return its :class:`Measurements`.
 
@@ -107,6 +108,11 @@ def read_csv_case(
         ``"ameriflux"`` or ``"fluxnet"``: read a flux-site file as it is
         (:mod:`pavement_mcmc.data.fluxsite`); ``preset_options``: ``utc_offset_hours``,
         ``depths_cm``, ``timestamp``.
+    forcing_optional : bool, default False
+        ``True`` for a case whose top boundary is its shallowest sensor (``model.top =
+        "measured"``): the air temperature and net radiation do not enter the model, so their
+        columns may be absent (all NaN) and their unfillable gaps stay NaN instead of refusing
+        the window. Values present are still checked.
 
     Returns
     -------
@@ -130,7 +136,7 @@ def read_csv_case(
         raise DataError(f"{path}: max_gap_fill must be an integer >= 0, got {max_gap_fill!r}")
 
     table, columns, etable, emap = _tables(path, columns, extras, preset, preset_options)
-    roles, sensors = _resolve_columns(table, columns)
+    roles, sensors = _resolve_columns(table, columns, () if forcing_optional else _FORCING)
     depth_obs, depth_bot = _select_sensors(table, sensors, observed, bottom)
 
     stamps = _parse_times(table, roles["time"])
@@ -144,10 +150,17 @@ def read_csv_case(
     def column(col: int) -> np.ndarray:
         return _numeric_column(table, col, idx, t, max_gap_fill, fills)
 
-    T_air = column(roles["T_air"])
-    q_net = column(roles["q_net"])
-    wind = column(roles["wind"]) if "wind" in roles else None
-    rain = column(roles["rain"]) if "rain" in roles else None
+    def forcing(role: str) -> np.ndarray:
+        if not forcing_optional:
+            return column(roles[role])
+        if role not in roles:
+            return np.full(idx.size, np.nan)
+        return _numeric_column(table, roles[role], idx, t, max_gap_fill, fills, keep_gaps=True)
+
+    T_air = forcing("T_air")
+    q_net = forcing("q_net")
+    wind = forcing("wind") if "wind" in roles else None
+    rain = forcing("rain") if "rain" in roles else None
     T_obs = np.column_stack([column(sensors[d]) for d in depth_obs])
     T_bottom = column(sensors[depth_bot])
     plates = sorted((float(k[2:-2]), k) for k in roles if k.startswith("G_"))
@@ -158,14 +171,19 @@ def read_csv_case(
             raise table.error(f"heat-flux plate at {plates[j][0]:g} cm is not above the bottom "
                               f"boundary at {depth_bot:g} cm", k)
 
-    for col, arr in [(roles["T_air"], T_air), (sensors[depth_bot], T_bottom)] + [
+    for col, arr in [(sensors[depth_bot], T_bottom)] + [
         (sensors[d], T_obs[:, k]) for k, d in enumerate(depth_obs)
     ]:
         _check_temperature(table, col, arr, idx)
-    _check_range(table, roles["q_net"], q_net, idx, -Q_MAX, Q_MAX, "W m-2")
+    known_air, known_q = np.isfinite(T_air), np.isfinite(q_net)
+    if known_air.any():
+        _check_temperature(table, roles["T_air"], T_air[known_air], idx[known_air])
+    if known_q.any():
+        _check_range(table, roles["q_net"], q_net[known_q], idx[known_q], -Q_MAX, Q_MAX, "W m-2")
     for role, arr in (("wind", wind), ("rain", rain)):
         if arr is not None:
-            _check_range(table, roles[role], arr, idx, 0.0, math.inf, f"negative {role}")
+            known = np.isfinite(arr)
+            _check_range(table, roles[role], arr[known], idx[known], 0.0, math.inf, f"negative {role}")
 
     named = {}
     for role in EXTRA_ROLES:
@@ -303,9 +321,10 @@ def _role_of(name: str) -> str | float | None:
 
 
 def _resolve_columns(
-    table: _Table, columns: Mapping[str, str] | None
+    table: _Table, columns: Mapping[str, str] | None, forcing: tuple[str, ...] = _FORCING
 ) -> tuple[dict[str, int], dict[float, int]]:
-    """Map roles to column indices: ({role: index}, {depth_cm: index})."""
+    """Map roles to column indices: ({role: index}, {depth_cm: index}); ``time`` and the
+    ``forcing`` roles are required."""
     path, header = table.path, table.header
     index = {name: k for k, name in enumerate(header)}
     mapping = dict(columns or {})
@@ -342,7 +361,7 @@ def _resolve_columns(
             other = header[store[role]]
             raise DataError(f"{path}, column {name!r}: columns {other!r} and {name!r} both provide {key!r}")
         store[role] = k
-    for role in _REQUIRED:
+    for role in ("time", *forcing):
         if role not in roles:
             close = difflib.get_close_matches(role, ignored, n=1, cutoff=0.5)
             if not close:

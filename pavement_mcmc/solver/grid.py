@@ -383,8 +383,11 @@ class Forcing:
             raise ValueError(f"grid.L={grid.L} m differs from bottom_depth={meas.bottom_depth} m")
         if grid.t_obs.shape != meas.t.shape or not np.allclose(grid.t_obs, meas.t):
             raise ValueError("grid.t_obs differs from the measurement times")
+        T_air = np.asarray(meas.T_air, dtype=float)
+        if meas.T_top is not None:  # unused under a measured top, where it may have gaps
+            T_air = np.nan_to_num(T_air, nan=0.0)
         return cls(
-            T_air=np.asarray(meas.T_air, dtype=float),
+            T_air=T_air,
             T_bottom=np.asarray(meas.T_bottom, dtype=float),
             T0=meas.initial_profile(grid.x),
             T_top=None if meas.T_top is None else np.asarray(meas.T_top, dtype=float),

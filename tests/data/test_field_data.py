@@ -108,3 +108,60 @@ def test_sensitivity_leaves_the_plate_factor_out_of_the_temperature_matrix(tmp_p
     assert "plate_G5cm" not in out["max_abs"] and "kappa" in out["max_abs"]
     assert np.isfinite(out["identifiability"]["condition_number"])
     assert not any("plate_G5cm" in v for v in out["identifiability"]["verdict"])
+
+
+HEAD_SOIL = ["time", "T_2cm", "T_5cm", "T_10cm", "T_50cm"]
+
+
+def _soil_only(rows):
+    return [[r[0], *r[3:]] for r in rows]
+
+
+def test_a_measured_top_case_needs_no_air_temperature_or_radiation(tmp_path):
+    """With the shallowest sensor as the top boundary the air temperature and net radiation do
+    not enter the model: a soil-only record reads (forcing all NaN), a record whose forcing has
+    a gap at the window's edge reads (the gap NaN), values present are still checked, and
+    without a measured top both are refused as before."""
+    soil = _csv(tmp_path, HEAD_SOIL, _soil_only(_rows()))
+    with pytest.raises(DataError, match=r"column 'T_air': required column is missing"):
+        read_csv_case(soil, sigma=0.1)
+    m = read_csv_case(soil, sigma=0.1, forcing_optional=True)
+    assert np.isnan(m.T_air).all() and np.isnan(m.q_net).all() and m.n_sensors == 3
+
+    rows = _rows()
+    rows[0][1] = rows[0][2] = ""  # the first row's air temperature and radiation missing
+    gap = _csv(tmp_path, HEAD, rows)
+    with pytest.raises(DataError, match=r"column 'T_air'.*edge of the time window"):
+        read_csv_case(gap, sigma=0.1)
+    m = read_csv_case(gap, sigma=0.1, forcing_optional=True)
+    assert np.isnan(m.T_air[0]) and np.isfinite(m.T_air[1:]).all() and np.isnan(m.q_net[0])
+
+    rows = _rows()
+    rows[3][2] = 5000  # an impossible net radiation is still refused
+    with pytest.raises(DataError, match=r"column 'q_net', data row 4.*outside"):
+        read_csv_case(_csv(tmp_path, HEAD, rows), sigma=0.1, forcing_optional=True)
+
+
+def test_a_forcing_gap_changes_nothing_in_a_measured_top_fit(tmp_path):
+    """The case loader reads the forcing as optional when ``model.top = "measured"``; the
+    posterior of a record with its air temperature and radiation blanked over a stretch is the
+    posterior of the intact record, value for value (the gap cannot leak into the solver)."""
+    from pavement_mcmc.data import load_case
+    from pavement_mcmc.posterior import build_problem
+
+    rows = [[f"2020-04-05T{i // 2:02d}:{30 * (i % 2):02d}:00Z", 10 + i, 50 * i,
+             9.0 + 0.3 * np.sin(i / 3), 8.5 + 0.1 * np.sin(i / 3 - 0.5), 8.0, 7.0] for i in range(24)]
+    blank = [r.copy() for r in rows]
+    for r in blank[5:12]:
+        r[1] = r[2] = ""
+    lp = []
+    for name, rr in (("intact", rows), ("blank", blank)):
+        d = tmp_path / name
+        d.mkdir()
+        _csv(d, HEAD, rr)
+        (d / "case.toml").write_text('[data]\ncsv = "m.csv"\nsigma = 0.1\n[model]\ntop = "measured"\n')
+        pb = build_problem(load_case(d / "case.toml"))
+        theta = np.array([[1.0, 2.0e6], [0.6, 1.5e6]])
+        lp.append(pb.posterior.log_prob(theta))
+    assert np.isfinite(lp[0]).all()
+    np.testing.assert_array_equal(lp[0], lp[1])
