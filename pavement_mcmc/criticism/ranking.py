@@ -244,6 +244,9 @@ def rank_missing_effects(
         except ValueError as err:
             skipped[name] = str(err)
             continue
+        if problem.model.top_measured and _hook(ext) == "surface":
+            skipped[name] = "acts at the surface, which the measured top boundary replaces"
+            continue
         fit = fit_extension(problem, base, name, h_spec)
         desc = type(ext).__doc__.strip().splitlines()[0] if type(ext).__doc__ else ext.name
         order = [e.name for e in fit.problem.model.extensions]

@@ -191,7 +191,8 @@ def hour_of_day(meas) -> np.ndarray:
 def derived_signals(meas, T_surface: np.ndarray | None = None) -> dict[str, np.ndarray]:
     """Forcing and derived signals at every observation time, name -> (n_obs,) array.
 
-    ``T_surface`` is the modelled surface temperature (default: the shallowest sensor).
+    ``T_surface`` is the modelled surface temperature (default: the shallowest sensor). A
+    signal with a gap (forcing that a measured top does not need) is left out.
     """
     Ts = meas.T_obs[:, 0] if T_surface is None else np.asarray(T_surface, float)
     out = {"q_net": np.asarray(meas.q_net, float)}
@@ -209,7 +210,7 @@ def derived_signals(meas, T_surface: np.ndarray | None = None) -> dict[str, np.n
     hod = hour_of_day(meas)
     out["tod_sin"] = np.sin(2 * np.pi * hod / 24.0)
     out["tod_cos"] = np.cos(2 * np.pi * hod / 24.0)
-    return out
+    return {k: v for k, v in out.items() if np.isfinite(v).all()}  # a gap: no correlation
 
 
 def _corr(x: np.ndarray, y: np.ndarray) -> tuple[float, float]:
