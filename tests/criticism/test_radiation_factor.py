@@ -110,3 +110,31 @@ def test_radiation_factor_tight_priors(tmp_path, factor, seed):
     """Tight, correct priors: a +-15 % radiometer error is ranked first and claimed."""
     rk, rad = ranking(tmp_path, factor, seed, "tight")
     assert rk.best is rad, rk.verdict
+
+
+def test_the_radiation_factor_is_a_scale_of_kappa_C_and_h_to_rounding(tmp_path):
+    """Why no rule, in sample or by forecast, can claim radiation_factor from the temperatures
+    of a free-h(t) fit (issue 22's calibration: 1 of 20): the model with a factor f and
+    (kappa, C, h) predicts exactly what the base model predicts with (kappa/f, C/f, h/f), at
+    every sensor and time, so held-out data see no difference either. A forecast twin (Case C
+    form, per-interval h), f = 0.8 and 1.3."""
+    import numpy as np
+
+    from pavement_mcmc.synthetic.corpus import forecast_twins, write_twin
+
+    twin = forecast_twins(("radiation_factor",), seeds=(701,), hours=16.0)[0]
+    path = write_twin(twin, tmp_path / twin.name)
+    base = build_problem(load_case(path))
+    cand = build_problem(load_case(path, additions={"model": {"extensions": ["radiation_factor"]}}))
+    assert cand.space.free == [*base.space.free, "rad_factor"]
+    rng = np.random.default_rng(3)
+    hs = [n for n in base.space.free if n.startswith("h_")]
+    for f in (0.8, 1.3):
+        p = {"kappa": 1.1, "C": 1.9e6, "gamma": 2.0, **{n: 8 + 6 * rng.random() for n in hs}}
+        scaled = {**{n: v / f for n, v in p.items()}, "gamma": p["gamma"]}
+        t_cand = cand.posterior.predict(np.array([[p[n] if n != "rad_factor" else f
+                                                   for n in cand.space.free]]))
+        t_base = base.posterior.predict(np.array([[scaled[n] for n in base.space.free]]))
+        np.testing.assert_allclose(t_cand, t_base, rtol=0, atol=1e-9)
+        nudged = np.array([[scaled[n] * (1.02 if n == "kappa" else 1.0) for n in base.space.free]])
+        assert np.max(np.abs(base.posterior.predict(nudged) - t_cand)) > 1e-3  # not vacuous
