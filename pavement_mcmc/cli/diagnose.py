@@ -53,7 +53,7 @@ def add_parser(sub) -> None:
 
 def _forecast_line(fc) -> str:
     return (f"forecast of the held-out {fc.horizon:g} h (fit to the first {fc.origins[-1]:g} h, "
-            f"then the forcing alone; future h(t): {fc.rule} rule): RMSE {fc.rmse:.3f} °C = "
+            f"{fc.future}): RMSE {fc.rmse:.3f} °C = "
             f"{fc.rmse_sigma:.2f} σ, log predictive density {fc.lpd:+.2f} per datum")
 
 

@@ -70,6 +70,7 @@ class Forecast:
     t, observed, predicted : the last origin's held-out times (s) and temperatures
         (n_rows, n_sensors), degC, for the figure.
     fits : the training MAP refit of each origin (not serialised).
+    top_measured : the surface is a measured sensor (no h(t) to carry forward).
     """
 
     rule: str
@@ -86,6 +87,13 @@ class Forecast:
     observed: np.ndarray = field(repr=False)
     predicted: np.ndarray = field(repr=False)
     fits: list = field(default_factory=list, repr=False)
+    top_measured: bool = False
+
+    @property
+    def future(self) -> str:
+        """What drives the held-out period, for a caption."""
+        return ("then the measured top sensor alone" if self.top_measured
+                else f"then the forcing alone; future h(t): {self.rule} rule")
 
     def to_dict(self) -> dict:
         keep = ("rule", "origins", "horizon", "rmse", "rmse_sigma", "rmse_sensors", "lpd",
@@ -242,7 +250,7 @@ def forecast(problem, start: dict[str, float] | None = None, *, origins=None,
     rmse = float(np.sqrt(np.mean(r_all**2)))
     rows = slice(n_train + 1, n_end + 1)
     return Forecast(
-        rule=rule, origins=origins,
+        rule=rule, origins=origins, top_measured=bool(problem.model.top_measured),
         horizon=float(horizon if horizon is not None else t[-1] / 3600.0 - origins[-1]),
         rmse=rmse, rmse_sigma=rmse / float(problem.meas.sigma),
         rmse_sensors=np.sqrt(np.mean(r_all**2, axis=0)).tolist(),

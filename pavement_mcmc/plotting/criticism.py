@@ -159,5 +159,5 @@ def plot_forecast(base, best=None, fig: Figure | None = None, labels=("base", ""
         ax.set_xlabel("time (h)")
     axes[0].set_ylabel("temperature (°C): dots measured, lines predicted")
     fig.suptitle(f"held-out {base.horizon:g} h after a fit to the first {base.origins[-1]:g} h "
-                 f"(future h(t): {base.rule} rule)", fontsize=9)
+                 f"({base.future})", fontsize=9)
     return fig

@@ -42,3 +42,12 @@ def test_signals_with_a_gap_are_left_out_of_the_correlations(tmp_path):
     sig = derived_signals(meas)
     assert "q_net" not in sig and "T_air-T_s" not in sig and "tod_sin" in sig
     assert all(np.isfinite(v).all() for v in sig.values())
+
+
+def test_the_forecast_of_a_measured_top_fit_says_what_drives_it(tmp_path):
+    """No h(t) is carried forward under a measured top: the caption must not say so."""
+    from pavement_mcmc.criticism.forecast import forecast
+
+    fc = forecast(_case(tmp_path), {"kappa": 0.8, "C": 1.6e6})
+    assert fc.top_measured and fc.future == "then the measured top sensor alone"
+    assert np.isfinite(fc.rmse) and fc.n > 0
