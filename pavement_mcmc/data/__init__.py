@@ -3,9 +3,10 @@
 - :mod:`.measurements`: :class:`Measurements`, the in-memory form every later step consumes;
 - :mod:`.reader`: :func:`read_csv_case`, the CSV column contract and its checks of columns and
   sensors; :mod:`.checks`: :class:`DataError` and the row-level checks (times, window, cells,
-  ranges);
+  ranges); :mod:`.table`: a CSV file read into a table, other dialects refused;
 - :mod:`.extras`: the optional named series (``T_surf_IR``, ``RH``, radiation components, LE,
-  H) and the merge of a second CSV on time; :mod:`.fluxsite`: AmeriFlux / FLUXNET presets;
+  H) and the merge of a second CSV on time (heat-flux plates ``G_<d>cm`` too);
+  :mod:`.fluxsite`: AmeriFlux / FLUXNET presets;
 - :mod:`.case`: :func:`load_case` (TOML -> :class:`CaseConfig`), overrides and the run record;
   :mod:`.schema`: the TOML's keys, :class:`ConfigError` and their validation;
 - :mod:`.toml_writer`: the one TOML writer; :mod:`.plugins`: the one plugin loader

@@ -10,6 +10,7 @@ checks of temperatures (kelvin, range) and other columns. Every problem raises
 from __future__ import annotations
 
 import math
+import re
 import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -25,6 +26,10 @@ MISSING_TOKENS = frozenset({"", "nan", "na", "n/a", "null", "none", "-"})
 T_RANGE = (-60.0, 90.0)
 #: A column whose median exceeds this (degC) is taken to be in kelvin.
 KELVIN_MEDIAN = 150.0
+#: a heat-flux plate's column name, ``G_<depth>cm``; |G| above G_MAX (W m-2) is rejected as
+#: physically implausible for a ground heat flux
+PLATE_RE = re.compile(r"^G_(\d+(?:\.\d*)?|\.\d+)cm$")
+G_MAX = 1000.0
 #: |q_net| above this (W m-2) is rejected as physically implausible.
 Q_MAX = 2000.0
 #: A time step longer than this multiple of the median step triggers a warning.

@@ -22,7 +22,10 @@ apply to both files (a source column belongs to the file that has it). Missing c
 ``max_gap_fill`` as in the case CSV, but a gap it cannot fill (at the window's edge, or
 longer) stays NaN instead of refusing the case: flux-site series (LE, H) have long gaps and
 an unused one must not make the data unreadable; a stream that uses the series refuses its
-gaps (:class:`~pavement_mcmc.posterior.surface_ir.SurfaceIR`). Errors are
+gaps (:class:`~pavement_mcmc.posterior.surface_ir.SurfaceIR`). A heat-flux plate
+``G_<depth>cm`` (a column renamed to it, e.g. ``[data.columns] "G_minus_SG" = "G_5cm"``) may
+come from the second file too; it is observed at every time, so its gaps refuse the window as
+in the case CSV. Errors are
 :class:`~pavement_mcmc.data.DataError` naming the file, the column and the row.
 """
 
@@ -33,6 +36,8 @@ from collections.abc import Mapping
 import numpy as np
 
 from .checks import (
+    G_MAX,
+    PLATE_RE,
     Q_MAX,
     DataError,
     _check_range,
@@ -85,7 +90,7 @@ def merge_extras(table: _Table, stamps: np.ndarray, t: np.ndarray, columns: Mapp
     if "time" not in names:
         raise DataError(f"{path}, column 'time': the extras file has no time column. "
                         f"Columns in the file: {', '.join(header)}")
-    found = {role: k for k, role in enumerate(names) if role in EXTRA_ROLES}
+    found = {role: k for k, role in enumerate(names) if role in EXTRA_ROLES or PLATE_RE.match(role)}
     if not found:
         raise DataError(f"{path}: no extras column in the file (expected any of "
                         f"{', '.join(EXTRA_ROLES)}). Columns in the file: {', '.join(header)}")
@@ -97,8 +102,12 @@ def merge_extras(table: _Table, stamps: np.ndarray, t: np.ndarray, columns: Mapp
     idx = _match(table, times, stamps, case_path)
     out = {}
     for role, col in found.items():
-        arr = _numeric_column(table, col, idx, t, max_gap_fill, fills, keep_gaps=True)
-        check_extra(table, col, arr, idx, role)
+        if PLATE_RE.match(role):  # a plate is observed at every time: a gap refuses the window
+            arr = _numeric_column(table, col, idx, t, max_gap_fill, fills)
+            _check_range(table, col, arr, idx, -G_MAX, G_MAX, "W m-2")
+        else:
+            arr = _numeric_column(table, col, idx, t, max_gap_fill, fills, keep_gaps=True)
+            check_extra(table, col, arr, idx, role)
         out[role] = arr
     return out
 

@@ -99,7 +99,8 @@ class Measurements:
         """The same data with the shallowest sensor as a measured (Dirichlet) top boundary.
 
         Depths are shifted so that ``x = 0`` is that sensor; the other sensors stay observed
-        (at least one must remain), plates must lie below it. The surface energy balance (air
+        (at least one must remain); plates must lie at or below it (a plate at the top sensor's
+        depth observes the flux the measured top lets in). The surface energy balance (air
         temperature, net radiation, h) no longer enters: temperatures alone then fix only the
         diffusivity kappa/C; kappa itself needs a flux observation or a prior.
         """
@@ -110,13 +111,13 @@ class Measurements:
                              "becomes the boundary, the others are observed)")
         z0 = float(self.depths[0])
         fd = self.flux_depths
-        if fd is not None and np.any(fd <= z0):
-            raise ValueError(f"heat-flux plates at {fd * 100} cm are not below the measured top "
+        if fd is not None and np.any(fd < z0 - 1e-9):  # a plate at the top: its flux in
+            raise ValueError(f"heat-flux plates at {fd * 100} cm are above the measured top "
                              f"at {z0 * 100:g} cm")
         return replace(
             self, depths=self.depths[1:] - z0, T_obs=self.T_obs[:, 1:], bottom_depth=self.bottom_depth - z0,
             T_top=self.T_obs[:, 0], depth_offset=z0,
-            flux_depths=None if fd is None else fd - z0,
+            flux_depths=None if fd is None else np.maximum(fd - z0, 0.0),
         )
 
     def select_rows(self, rows) -> Measurements:

@@ -27,7 +27,6 @@ in :mod:`pavement_mcmc.data.checks`; every name there is re-exported here.
 
 from __future__ import annotations
 
-import csv
 import difflib
 import math
 import re
@@ -40,6 +39,8 @@ import numpy as np
 
 from .checks import (
     _TOL,
+    G_MAX,
+    PLATE_RE,
     Q_MAX,
     DataError,
     _check_range,
@@ -53,6 +54,7 @@ from .checks import (
 from .extras import EXTRA_ROLES, check_extra, merge_extras
 from .fluxsite import apply_preset
 from .measurements import Measurements
+from .table import read_table
 from .times import format_time
 
 __all__ = ["DataError", "read_csv_case"]
@@ -60,9 +62,6 @@ __all__ = ["DataError", "read_csv_case"]
 _ROLES = ("time", "T_air", "q_net", "wind", "rain")
 _FORCING = ("T_air", "q_net")  # required unless the top boundary is a measured sensor
 _DEPTH_RE = re.compile(r"^T_(\d+(?:\.\d*)?|\.\d+)cm$")
-_FLUX_RE = re.compile(r"^G_(\d+(?:\.\d*)?|\.\d+)cm$")
-#: |G| above this (W m-2) is rejected as physically implausible for a ground heat flux
-G_MAX = 1000.0
 
 
 def read_csv_case(
@@ -163,13 +162,9 @@ def read_csv_case(
     rain = forcing("rain") if "rain" in roles else None
     T_obs = np.column_stack([column(sensors[d]) for d in depth_obs])
     T_bottom = column(sensors[depth_bot])
-    plates = sorted((float(k[2:-2]), k) for k in roles if k.startswith("G_"))
-    G_obs = np.column_stack([column(roles[k]) for _, k in plates]) if plates else None
-    for j, (_, k) in enumerate(plates):
-        _check_range(table, roles[k], G_obs[:, j], idx, -G_MAX, G_MAX, "W m-2")
-        if plates[j][0] / 100.0 >= depth_bot / 100.0:
-            raise table.error(f"heat-flux plate at {plates[j][0]:g} cm is not above the bottom "
-                              f"boundary at {depth_bot:g} cm", k)
+    plates = {k: column(roles[k]) for k in roles if k.startswith("G_")}
+    for k, arr in plates.items():
+        _check_range(table, roles[k], arr, idx, -G_MAX, G_MAX, "W m-2")
 
     for col, arr in [(sensors[depth_bot], T_bottom)] + [
         (sensors[d], T_obs[:, k]) for k, d in enumerate(depth_obs)
@@ -192,8 +187,10 @@ def read_csv_case(
                                           keep_gaps=True)  # unfillable gaps: NaN
             check_extra(table, roles[role], named[role], idx, role)
     if etable is not None:
-        named.update(merge_extras(etable, stamps[idx], t, emap, max_gap_fill, fills, set(named),
-                                  path))
+        named.update(merge_extras(etable, stamps[idx], t, emap, max_gap_fill, fills,
+                                  set(named) | set(plates), path))
+        plates.update({k: named.pop(k) for k in list(named) if k.startswith("G_")})
+    flux_depths, G_obs = _plate_block(plates, depth_bot, table, roles)
     for arr in named.values():
         arr.flags.writeable = False
     time0 = format_time(stamps[idx[0]])
@@ -206,7 +203,7 @@ def read_csv_case(
         depths=np.asarray(depth_obs, float) / 100.0,
         T_obs=T_obs,
         T_bottom=T_bottom,
-        flux_depths=np.asarray([d for d, _ in plates], float) / 100.0 if plates else None,
+        flux_depths=flux_depths,
         G_obs=G_obs,
     )
     for arr in arrays.values():
@@ -223,12 +220,26 @@ def read_csv_case(
     )
 
 
+def _plate_block(plates: dict[str, np.ndarray], depth_bot: float, table: _Table, roles):
+    """Plate depths (m) and readings (n_obs, n_plates), shallowest first, or (None, None)."""
+    if not plates:
+        return None, None
+    order = sorted(plates, key=lambda k: float(k[2:-2]))
+    for k in order:
+        if float(k[2:-2]) >= depth_bot:
+            msg = (f"heat-flux plate at {k[2:-2]} cm is not above the bottom boundary at "
+                   f"{depth_bot:g} cm")
+            raise table.error(msg, k) if k in roles else DataError(f"{table.path}: {msg}")
+    return (np.asarray([float(k[2:-2]) for k in order]) / 100.0,
+            np.column_stack([plates[k] for k in order]))
+
+
 def _tables(path: str, columns, extras, preset, preset_options):
     """The case table (as the contract, through a preset), its renames, and the extras table
     with its renames (None, {} without one)."""
-    table = _read_table(path)
+    table = read_table(path)
     columns = dict(columns or {})
-    etable = _read_table(str(extras)) if extras is not None else None
+    etable = read_table(str(extras)) if extras is not None else None
     emap = {}
     if etable is not None:  # renames of the second file's columns
         emap = {k: v for k, v in columns.items() if k in etable.header}
@@ -247,67 +258,6 @@ def _check_sigma(sigma: object, path: str) -> float:
     return float(sigma)
 
 
-def _read_table(path: str) -> _Table:
-    try:
-        with open(path, newline="", encoding="utf-8-sig") as fh:
-            reader = csv.reader(fh)
-            header: list[str] | None = None
-            rows: list[list[str]] = []
-            lines: list[int] = []
-            for rec in reader:
-                if not rec or (len(rec) == 1 and not rec[0].strip()):
-                    continue  # blank line
-                if header is None:
-                    header = [name.strip() for name in rec]
-                    header_line = reader.line_num
-                    continue
-                rows.append([cell.strip() for cell in rec])
-                lines.append(reader.line_num)
-    except FileNotFoundError:
-        raise DataError(f"{path}: file not found") from None
-    except (OSError, UnicodeDecodeError, csv.Error) as exc:
-        raise DataError(f"{path}: cannot read as a UTF-8 CSV file ({exc})") from None
-    if header is None:
-        raise DataError(f"{path}: the file is empty (no header line, no data rows)")
-    _refuse_other_dialects(path, header, rows)
-    table = _Table(path, header, rows, lines)
-    seen: dict[str, int] = {}
-    for k, name in enumerate(header):
-        if not name:
-            raise DataError(f"{path}, line {header_line}: column {k + 1} of the header is unnamed")
-        if name in seen:
-            raise DataError(
-                f"{path}, column {name!r}: duplicate column name in the header (line "
-                f"{header_line}, columns {seen[name] + 1} and {k + 1})"
-            )
-        seen[name] = k
-    if not rows:
-        raise DataError(f"{path}: the file has a header but no data rows")
-    for i, row in enumerate(rows):
-        if len(row) != len(header):
-            raise table.error(f"has {len(row)} fields, the header has {len(header)}", row=i)
-    return table
-
-
-def _refuse_other_dialects(path: str, header: list[str], rows: list[list[str]]) -> None:
-    """A ';'- or tab-separated file, or one with decimal commas, read as comma-separated: say
-    what it looks like instead of failing later on a missing column."""
-    for sep, name in ((";", "';'-separated"), ("\t", "tab-separated")):
-        if len(header) <= 2 and any(sep in h for h in header):
-            decimal = any(re.search(r"\d,\d", ",".join(r)) for r in rows[:20])
-            extra = " with decimal commas" if decimal else ""
-            raise DataError(
-                f"{path}: the file looks {name}{extra} (header {sep.join(header)[:60]!r}); "
-                "a case CSV is comma-separated with a decimal point: save it as CSV "
-                "(e.g. 'CSV UTF-8' with '.' as the decimal separator)")
-    sample = [r for r in rows[:20] if len(r) > len(header)]
-    if sample and all(re.fullmatch(r"-?\d+", c) for r in sample for c in r[1:]):
-        raise DataError(
-            f"{path}: the data rows have more fields than the header ({len(sample[0])} against "
-            f"{len(header)}) and hold only whole numbers: this looks like decimal commas "
-            "(14,18 for 14.18); save the file with '.' as the decimal separator")
-
-
 def _role_of(name: str) -> str | float | None:
     """Contract role of a column name: a role string (``G_<d>cm`` for a heat-flux plate, in its
     canonical spelling), a sensor depth in cm, or None."""
@@ -316,7 +266,7 @@ def _role_of(name: str) -> str | float | None:
     m = _DEPTH_RE.match(name)
     if m:
         return float(m.group(1))
-    m = _FLUX_RE.match(name)
+    m = PLATE_RE.match(name)
     return f"G_{float(m.group(1)):g}cm" if m else None
 
 

@@ -141,3 +141,31 @@ def test_unfillable_gap_in_an_extra_of_the_case_csv_stays_nan(tmp_path):
     path.write_text("\n".join(lines) + "\n")
     m = read_csv_case(path, sigma=0.1)
     assert np.isnan(m.extras["RH"][-2:]).all() and (m.extras["RH"][:-2] == 55).all()
+
+
+def test_a_plate_from_the_second_file_is_a_plate(tmp_path):
+    """A flux series of the extras file renamed ``G_<d>cm`` becomes a heat-flux plate (the
+    desert record's storage-corrected flux lives there); it must be complete in the window,
+    and it may sit at the depth of a measured top sensor (its flux is the top's)."""
+    ex = _extras_csv(tmp_path, header="time,T_surf_IR,Gflux,WS_2m")  # Gflux = minute
+    m = read_csv_case(_case_csv(tmp_path), sigma=0.1, extras=ex, columns={"Gflux": "G_2cm"})
+    assert m.plate_labels == ["G2cm"] and "G_2cm" not in m.extras
+    np.testing.assert_allclose(m.flux_depths, [0.02])
+    np.testing.assert_allclose(m.G_obs[:, 0], 30.0 * np.arange(N))  # the case's times, not every row
+    top = m.with_measured_top()  # the 0 cm sensor is the top; the plate 2 cm below it
+    np.testing.assert_allclose(top.flux_depths, [0.02])
+
+    at_top = read_csv_case(_case_csv(tmp_path), sigma=0.1, extras=ex, columns={"Gflux": "G_0cm"},
+                           observed=[0, 2])
+    assert at_top.with_measured_top().flux_depths.tolist() == [0.0]
+
+    lines = ex.read_text().splitlines()
+    t, ir, _, ws = lines[7].split(",")
+    lines[7] = f"{t},{ir},,{ws}"  # one reading missing at a case time (minute 90)
+    ex.write_text("\n".join(lines) + "\n")
+    with pytest.raises(DataError, match=r"extras\.csv, column 'Gflux'.*missing value"):
+        read_csv_case(_case_csv(tmp_path), sigma=0.1, extras=ex, columns={"Gflux": "G_2cm"})
+    with pytest.raises(DataError, match=r"'G_2cm' is also a column"):
+        _extras_csv(tmp_path, header="time,T_surf_IR,G_2cm,WS_2m")
+        read_csv_case(_case_csv(tmp_path), sigma=0.1, extras=tmp_path / "extras.csv",
+                      columns={"T_5cm": "G_2cm"})
