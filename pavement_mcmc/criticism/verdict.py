@@ -7,7 +7,7 @@ refit's (both MAP fits of the same data); a candidate that helps without explain
 
 from __future__ import annotations
 
-from .entries import DATA_THRESHOLD, FORECAST_THRESHOLD
+from .entries import DATA_THRESHOLD, ENERGY, FORECAST_THRESHOLD
 from .residuals import ResidualReport, noise_like
 
 
@@ -83,6 +83,29 @@ def forecast_sentence(best, entries, fbase) -> str:
             f"{top.forecast_rmse_sigma:.2f} σ, F = {top.forecast_gain:.0f}{why}).")
 
 
+def energy_sentence(entries, base, fbase) -> str:
+    """How the surface energy balance (:data:`~.entries.ENERGY`) did, with its figures, when the
+    ranking tried it ('' otherwise): named by its forecast or not, and why not."""
+    e = next((x for x in entries if x.name == ENERGY), None)
+    if e is None:
+        return ""
+    txt = (f" The surface energy balance ({ENERGY}: {', '.join(e.values)} in place of the "
+           f"free h(t)) was tried: in sample the MAP RMSE {rmse_change(base.rmse, e.rmse)}")
+    if e.forecast_gain is None or fbase is None:
+        return txt + "; no forecast (the window is too short to hold a part out)."
+    txt += (f"; its forecast of the held-out {fbase.horizon:g} h has RMSE "
+            f"{e.forecast_rmse_sigma:.2f} σ against the base model's {fbase.rmse_sigma:.2f} σ, "
+            f"F = {e.forecast_gain:.1f}")
+    if e.detected:
+        return txt + f" > {FORECAST_THRESHOLD:g}: named by forecast."
+    why = ([f"F <= {FORECAST_THRESHOLD:g}"] if e.forecast_gain <= FORECAST_THRESHOLD else []) + (
+        ["it fits worse in sample"] if e.score < -e.threshold else []) + (
+        [f"{', '.join(e.at_bound)} at a bound"] if e.at_bound else [])
+    phi = (1 + fbase.rho) / (1 - fbase.rho)
+    return txt + (f": not named by forecast ({'; '.join(why)}; the {fbase.n} held-out data, "
+                  f"lag-1 {fbase.rho:.2f}, count as {fbase.n / phi:.1f} independent ones).")
+
+
 def make_verdict(best, entries, lookalikes, rep: ResidualReport, base, none, findings,
                  points=None, fbase=None) -> str:
     """One paragraph: where the evidence points, the missing effect (or none, or "none of
@@ -90,6 +113,7 @@ def make_verdict(best, entries, lookalikes, rep: ResidualReport, base, none, fin
     are not claimed."""
     txt = (_where(points, entries) if points else "") + _verdict_main(
         best, entries, lookalikes, rep, base, none) + forecast_sentence(best, entries, fbase)
+    txt += energy_sentence(entries, base, fbase)
     alarms = [f for f in findings if f.level == "alarm"]
     if alarms:
         txt += (" The base fit is physically impossible (" + "; ".join(f.text() for f in alarms)
