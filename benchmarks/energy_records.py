@@ -2,6 +2,7 @@
 ``energy_balance``, at the MAP (posterior/map.py through criticism.fitting.refit).
 
     nice -n 5 /work/main/.venv/bin/python benchmarks/energy_records.py [grass|desert ...]
+    nice -n 5 /work/main/.venv/bin/python benchmarks/energy_records.py daily grass|desert [--out F]
 
 For each record (runs/grass*.toml: 72 h from 2020-04-05 00Z; runs/desert*.toml: 72 h from
 2025-07-11 07Z) and each model it prints the in-sample RMSE (degC and in sigma), kappa, C,
@@ -12,10 +13,18 @@ initial profile with the measured forcing and bottom temperature, the RMSE taken
 after the window. Rule for the future of what the fit has no law for: a per-interval h(t)
 repeats the last fitted day's h at the same clock time (diurnal persistence); a daily
 Priestley-Taylor coefficient keeps the last day's value.
+
+``daily``: the energy-balance case of a record (:data:`DAILY`) fitted by MAP on every daily
+window (the 18 grass days from 2020-03-29 00Z; the 30 July desert days, 2025-07-01 07Z ...
+07-30, local midnights), one JSON line per day (kappa, C, kappa/C, RMSE, the added physics'
+values and which sit at a bound), then the spread of kappa/C, kappa and C about their medians
+(the share of days within +-20 %). A file given by ``--out`` is resumed (days in it are
+skipped).
 """
 
 from __future__ import annotations
 
+import json
 import sys
 import time
 from pathlib import Path
@@ -49,6 +58,15 @@ CASES = {
                ("energy_balance + two_layer + IR (ir_view)", "desert_energy.toml", None, {})],
 }
 DAY_H = 24.0
+#: dry desert soil: the latent heat's coefficient went to its bound 0 on the 72 h window (one
+#: coefficient for the window, or the third day's of three): LE is left out (eb_alpha fixed 0)
+DRY = {"parameters": {"eb_alpha": {"value": 0.0, "vary": False}}}
+#: record -> (case TOML, extensions (None: as is), overrides, first window start h, days)
+DAILY = {"grass": ("grass_energy.toml", None, {}, 0.0, 18),
+         "desert": ("desert_energy.toml", ["energy_balance_window", "two_layer"], DRY, 2928.0, 30),
+         "desert_one_layer": ("desert_energy.toml", ["energy_balance_window"], DRY, 2928.0, 30),
+         "desert_no_ir": ("desert.toml", ["energy_balance_window"], DRY, 2928.0, 30),
+         "desert_alpha": ("desert_energy.toml", ["energy_balance_window"], {}, 2928.0, 30)}
 
 
 def forecast_values(problem, fit_problem, values: dict[str, float]) -> dict[str, np.ndarray]:
@@ -127,5 +145,62 @@ def main(records: list[str]) -> None:
             sys.stdout.flush()
 
 
+def daily(record: str, out: Path | None = None) -> list[dict]:
+    """MAP fits of :data:`DAILY`'s case on every day (module doc); rows by day."""
+    name, exts, overrides, h0, n_days = DAILY[record]
+    rows = [json.loads(x) for x in out.read_text().splitlines()] if out and out.exists() else []
+    done = {r["start_h"] for r in rows}
+    for d in range(n_days):
+        a = h0 + DAY_H * d
+        if a in done:
+            continue
+        t0 = time.perf_counter()
+        cfg = load_case(REPO / "runs" / name,
+                        merge_overrides(overrides, {"data": {"window_hours": [a, a + DAY_H]}}))
+        pb = build_problem(cfg, extensions=exts)
+        fit = refit(pb, max_nfev=200)
+        v = fit.values()
+        lo, hi = pb.space.bounds()
+        at = [n for j, n in enumerate(pb.space.free)
+              if min(v[n] - lo[j], hi[j] - v[n]) < 1e-3 * (hi[j] - lo[j])]
+        row = {"start_h": a, "time0": pb.meas.time0, "rmse": fit.rmse, "kappa": v["kappa"],
+               "C": v["C"], "diffusivity": v["kappa"] / v["C"], "at_bound": at,
+               "values": {k: x for k, x in v.items() if k in pb.space.free},
+               "seconds": time.perf_counter() - t0}
+        rows.append(row)
+        if out is not None:
+            with out.open("a") as fh:
+                fh.write(json.dumps(row) + "\n")
+        print(f"{record} {pb.meas.time0[:10]} RMSE {fit.rmse:.3f} kappa {v['kappa']:.3g} C "
+              f"{v['C'] / 1e6:.3g} MJ k/C {v['kappa'] / v['C'] * 1e6:.3g} mm2/s"
+              + (f" at a bound: {at}" if at else ""), flush=True)
+    return sorted(rows, key=lambda r: r["start_h"])
+
+
+def spread(rows: list[dict], key: str) -> dict:
+    """Median of ``key`` over the days, its range relative to the median, and the share of
+    days within +-20 % of it."""
+    x = np.array([r[key] for r in rows], float)
+    med = float(np.median(x))
+    rel = x / med - 1.0
+    return {"median": med, "min_rel": float(rel.min()), "max_rel": float(rel.max()),
+            "within_20": int(np.sum(np.abs(rel) <= 0.2)), "n": int(x.size)}
+
+
+def main_daily(args: list[str]) -> None:
+    record = args[0]
+    out = Path(args[args.index("--out") + 1]) if "--out" in args else None
+    rows = daily(record, out)
+    for key in ("diffusivity", "kappa", "C"):
+        s = spread(rows, key)
+        print(f"{record} {key}: median {s['median']:.4g}, {100 * s['min_rel']:+.0f} % .. "
+              f"{100 * s['max_rel']:+.0f} %, {s['within_20']} of {s['n']} days within +-20 %")
+    bound = sum(bool(r["at_bound"]) for r in rows)
+    print(f"{record}: {bound} of {len(rows)} days with a parameter at a bound")
+
+
 if __name__ == "__main__":
-    main(sys.argv[1:] or list(CASES))
+    if sys.argv[1:2] == ["daily"]:
+        main_daily(sys.argv[2:])
+    else:
+        main(sys.argv[1:] or list(CASES))
