@@ -64,6 +64,10 @@ def forecast_sentence(best, entries, fbase) -> str:
     if fbase is None:
         return ""
     period = f"the held-out {fbase.horizon:g} h"
+    if best is not None and best.forecast_gain is not None and not best.forecasts_better:
+        return (f" It is claimed for the plausibility of its kappa and C, not by its forecast: "
+                f"RMSE of {period} {fbase.rmse_sigma:.2f} σ -> {best.forecast_rmse_sigma:.2f} σ, "
+                f"F = {best.forecast_gain:.1f} <= {FORECAST_THRESHOLD:g}.")
     if best is not None and best.forecast_gain is not None:
         return (f" It forecasts {period} from the forcing alone better than the base model: "
                 f"RMSE {fbase.rmse_sigma:.2f} σ -> {best.forecast_rmse_sigma:.2f} σ (gain F = "
@@ -124,7 +128,8 @@ def make_verdict(best, entries, lookalikes, rep: ResidualReport, base, none, fin
 def _verdict_main(best, entries, lookalikes, rep, base, none) -> str:
     if best is not None:
         head = "Missing effect" if none is None else "Missing effect (partly)"
-        rule = "forecast gain" if best.forecast_gain is not None else "score"
+        rule = ("forecast gain" if best.forecast_gain is not None and best.forecasts_better
+                else "plausibility" if best.plausibility_claim else "score")
         txt = (f"{head}: {best.name} (by its {rule}; in sample: score {best.score:.0f}, data "
                f"part {best.data_score:.0f}, the MAP RMSE {rmse_change(base.rmse, best.rmse)} = "
                f"{best.rmse_sigma:.2f} σ).")
@@ -134,7 +139,8 @@ def _verdict_main(best, entries, lookalikes, rep, base, none) -> str:
                     "MJ m-3 K-1 back into the range of ground materials without a worse fit.")
         others = [n for n in lookalikes if n != best.name]
         if others:
-            txt += (f" Look-alikes with a similar {rule}: {', '.join(others)}; "
+            alike = "forecast gain" if best.forecast_gain is not None else "score"
+            txt += (f" Look-alikes with a similar {alike}: {', '.join(others)}; "
                     f"{best.name} predicts held-out sensors best.")
         if best.name == "radiation_factor":
             txt += (

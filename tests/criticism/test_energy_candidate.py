@@ -68,3 +68,20 @@ def test_a_record_without_net_radiation_skips_it_with_the_reason(tmp_path):
     rk = rank_missing_effects(dark, None, None, holdout=False, energy_law=True)
     assert ENERGY in rk.skipped and "net radiation" in rk.skipped[ENERGY]
     assert all(e.name != ENERGY for e in rk.entries)
+
+
+def test_a_plausibility_claim_is_not_worded_as_a_forecast_claim():
+    """Under the forecast rule a candidate that brings an impossible kappa, C back into range is
+    claimed without forecasting better; the verdict said "by its forecast gain" and "F = 3 > 15"
+    (seen on the desert record's base fit, conductivity_temperature)."""
+    from pavement_mcmc.criticism.entries import Entry
+    from pavement_mcmc.criticism.verdict import forecast_sentence
+
+    e = Entry(name="conductivity_temperature", description="", reference="base", score=1039.0,
+              data_score=567.0, delta_chi2=1100.0, delta_prior=0.0, added_params=1.0, rho=0.8,
+              rmse=0.41, rmse_sigma=4.1, rmse_sensors=[0.4], evidence=[], values={},
+              restores_plausibility=True, forecast_gain=2.6, forecast_rmse_sigma=6.85)
+    assert e.detected and e.plausibility_claim and not e.forecasts_better
+    fbase = SimpleNamespace(horizon=24.0, rmse_sigma=7.88)
+    txt = forecast_sentence(e, [e], fbase)
+    assert "not by its forecast" in txt and "F = 2.6 <= 15" in txt and "> 15" not in txt
