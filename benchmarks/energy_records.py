@@ -61,7 +61,8 @@ CASES = {
                ("base + two_layer", "desert.toml", ["two_layer"], {}),
                ("energy_balance + two_layer, no IR", "desert.toml",
                 ["energy_balance", "two_layer"], {}),
-               ("energy_balance + two_layer + IR (ir_view)", "desert_energy.toml", None, {})],
+               ("desert_energy.toml: EB (window) + two_layer + IR, no LE", "desert_energy.toml", None,
+                {})],
 }
 DAY_H = 24.0
 #: dry desert soil: the latent heat's coefficient went to its bound 0 on the 72 h window (one
