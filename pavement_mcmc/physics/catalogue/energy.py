@@ -122,7 +122,7 @@ class EnergyBalance(Extension):
         """Latent heat flux LE at each observation time (n_sets, n_obs), W m-2."""
         names = self.alpha_names(meas)
         alpha = np.stack([np.asarray(p[n], float) for n in names], axis=1)
-        a_t = alpha[:, day_index(meas.t, len(names))] if len(names) > 1 else alpha[:, [0]]
+        a_t = alpha[:, day_index(meas.t, len(names))]
         avail = priestley_taylor_weight(meas.T_air) * np.clip(meas.q_net, 0.0, None)
         return a_t * avail[None, :]
 
