@@ -2,6 +2,8 @@
 ``energy_balance``, at the MAP (posterior/map.py through criticism.fitting.refit).
 
     nice -n 5 /work/main/.venv/bin/python benchmarks/energy_records.py [grass|desert ...]
+    nice -n 5 /work/main/.venv/bin/python benchmarks/energy_records.py daily grass|desert [--out F]
+    nice -n 5 /work/main/.venv/bin/python benchmarks/energy_records.py gain [grass|desert ...]
 
 For each record (runs/grass*.toml: 72 h from 2020-04-05 00Z; runs/desert*.toml: 72 h from
 2025-07-11 07Z) and each model it prints the in-sample RMSE (degC and in sigma), kappa, C,
@@ -12,10 +14,23 @@ initial profile with the measured forcing and bottom temperature, the RMSE taken
 after the window. Rule for the future of what the fit has no law for: a per-interval h(t)
 repeats the last fitted day's h at the same clock time (diurnal persistence); a daily
 Priestley-Taylor coefficient keeps the last day's value.
+
+``gain``: the forecast gain F of the criticism's claim rule (criticism/forecast.py: the first
+48 h refitted, the last 24 h of the 72 h window predicted from the forcing; F = (n/phi)
+log(MSE_base / MSE_candidate), claimed above 15) of each energy-balance model of :data:`GAIN`
+against the base model of the window, with the in-sample RMSE.
+
+``daily``: the energy-balance case of a record (:data:`DAILY`) fitted by MAP on every daily
+window (the 18 grass days from 2020-03-29 00Z; the 30 July desert days, 2025-07-01 07Z ...
+07-30, local midnights), one JSON line per day (kappa, C, kappa/C, RMSE, the added physics'
+values and which sit at a bound), then the spread of kappa/C, kappa and C about their medians
+(the share of days within +-20 %). A file given by ``--out`` is resumed (days in it are
+skipped).
 """
 
 from __future__ import annotations
 
+import json
 import sys
 import time
 from pathlib import Path
@@ -24,7 +39,7 @@ import numpy as np
 
 from pavement_mcmc.criticism.fitting import refit
 from pavement_mcmc.data import load_case, merge_overrides
-from pavement_mcmc.physics.catalogue.energy import energy_partition
+from pavement_mcmc.physics.catalogue.energy import EnergyBalance, energy_partition
 from pavement_mcmc.posterior import build_problem
 
 REPO = Path(__file__).resolve().parents[1]
@@ -46,9 +61,21 @@ CASES = {
                ("base + two_layer", "desert.toml", ["two_layer"], {}),
                ("energy_balance + two_layer, no IR", "desert.toml",
                 ["energy_balance", "two_layer"], {}),
-               ("energy_balance + two_layer + IR (ir_view)", "desert_energy.toml", None, {})],
+               ("desert_energy.toml: EB (window) + two_layer + IR, no LE", "desert_energy.toml", None,
+                {})],
 }
 DAY_H = 24.0
+#: dry desert soil: the latent heat's coefficient went to its bound 0 on the 72 h window (one
+#: coefficient for the window, or the third day's of three): LE is left out (eb_alpha fixed 0)
+DRY = {"parameters": {"eb_alpha": {"value": 0.0, "vary": False}}}
+#: ... and the coefficient(s) free again (runs/desert_energy.toml fixes them)
+WET = {"parameters": {"eb_alpha": {"value": 0.5, "vary": True}}}
+#: record -> (case TOML, extensions (None: as is), overrides, first window start h, days)
+DAILY = {"grass": ("grass_energy.toml", None, {}, 0.0, 18),
+         "desert": ("desert_energy.toml", None, {}, 2928.0, 30),
+         "desert_one_layer": ("desert_energy.toml", ["energy_balance_window"], DRY, 2928.0, 30),
+         "desert_no_ir": ("desert.toml", ["energy_balance_window"], DRY, 2928.0, 30),
+         "desert_alpha": ("desert_energy.toml", ["energy_balance_window"], WET, 2928.0, 30)}
 
 
 def forecast_values(problem, fit_problem, values: dict[str, float]) -> dict[str, np.ndarray]:
@@ -91,7 +118,7 @@ def run(toml: Path, exts: list[str] | None = None, overrides: dict | None = None
     out["at_bound"] = [n for n in own if min(v[n] - lo[pb.space.free.index(n)],
                                              hi[pb.space.free.index(n)] - v[n])
                        < 1e-3 * (hi[pb.space.free.index(n)] - lo[pb.space.free.index(n)])]
-    if any(e.name == "energy_balance" for e in pb.model.extensions):
+    if any(isinstance(e, EnergyBalance) for e in pb.model.extensions):
         part = energy_partition(pb.model, {k: np.array([x]) for k, x in v.items()})
         out["midday"] = {k: float(x[0]) for k, x in part.midday().items()}
     w0, w1 = cfg.data["window_hours"]
@@ -127,5 +154,108 @@ def main(records: list[str]) -> None:
             sys.stdout.flush()
 
 
+#: record -> (label, case TOML, extensions (None: as is), overrides) of ``gain``; the first row
+#: is the base model
+GAIN = {"grass": [("base (per-interval h)", "grass.toml", None, {}),
+                  ("energy_balance_window (what diagnose tries)", "grass.toml",
+                   ["energy_balance_window"], {}),
+                  ("energy_balance_window + surface_layer", "grass.toml",
+                   ["energy_balance_window", "surface_layer"], {}),
+                  ("energy_balance + canopy + IR (grass_energy.toml)", "grass_energy.toml", None, {}),
+                  ("energy_balance_window + canopy + IR", "grass_energy.toml",
+                   ["energy_balance_window", "canopy"], {})],
+        "desert": [("base (per-interval h)", "desert.toml", None, {}),
+                   ("energy_balance_window (what diagnose tries)", "desert.toml",
+                    ["energy_balance_window"], {}),
+                   ("energy_balance_window + two_layer, no LE, no IR", "desert.toml",
+                    ["energy_balance_window", "two_layer"], DRY),
+                   ("energy_balance_window + two_layer + IR, no LE (desert_energy.toml)",
+                    "desert_energy.toml", None, {}),
+                   ("energy_balance + two_layer + IR (daily alpha)", "desert_energy.toml",
+                    ["energy_balance", "two_layer"], WET)]}
+
+
+def gain(record: str) -> None:
+    """Forecast gains of :data:`GAIN`'s models against the first (module doc)."""
+    from pavement_mcmc.criticism.forecast import forecast, forecast_gain
+
+    fb = None
+    for label, name, exts, overrides in GAIN[record]:
+        pb = build_problem(load_case(REPO / "runs" / name, overrides or None), extensions=exts)
+        fit = refit(pb, max_nfev=200)
+        fc = forecast(pb, fit.values(), max_nfev=200)
+        fb = fb or fc
+        v = fit.values()
+        lo, hi = pb.space.bounds()
+        at = [n for j, n in enumerate(pb.space.free)
+              if min(v[n] - lo[j], hi[j] - v[n]) < 1e-3 * (hi[j] - lo[j])]
+        phi = (1 + fb.rho) / (1 - fb.rho)
+        print(f"{record} {label:60s} in-sample {fit.rmse:.3f} C  forecast {fc.rmse:.3f} C "
+              f"({fc.rmse_sigma:.2f} s)  F {forecast_gain(fb, fc):+.1f}  kappa {v['kappa']:.3g} "
+              f"C {v['C'] / 1e6:.3g} MJ" + (f"  at a bound: {at}" if at else "")
+              + (f"  [base: n {fb.n}, lag-1 {fb.rho:.3f}, n/phi {fb.n / phi:.1f}]"
+                 if fc is fb else ""), flush=True)
+
+
+def daily(record: str, out: Path | None = None) -> list[dict]:
+    """MAP fits of :data:`DAILY`'s case on every day (module doc); rows by day."""
+    name, exts, overrides, h0, n_days = DAILY[record]
+    rows = [json.loads(x) for x in out.read_text().splitlines()] if out and out.exists() else []
+    done = {r["start_h"] for r in rows}
+    for d in range(n_days):
+        a = h0 + DAY_H * d
+        if a in done:
+            continue
+        t0 = time.perf_counter()
+        cfg = load_case(REPO / "runs" / name,
+                        merge_overrides(overrides, {"data": {"window_hours": [a, a + DAY_H]}}))
+        pb = build_problem(cfg, extensions=exts)
+        fit = refit(pb, max_nfev=200)
+        v = fit.values()
+        lo, hi = pb.space.bounds()
+        at = [n for j, n in enumerate(pb.space.free)
+              if min(v[n] - lo[j], hi[j] - v[n]) < 1e-3 * (hi[j] - lo[j])]
+        row = {"start_h": a, "time0": pb.meas.time0, "rmse": fit.rmse, "kappa": v["kappa"],
+               "C": v["C"], "diffusivity": v["kappa"] / v["C"], "at_bound": at,
+               "values": {k: x for k, x in v.items() if k in pb.space.free},
+               "seconds": time.perf_counter() - t0}
+        rows.append(row)
+        if out is not None:
+            with out.open("a") as fh:
+                fh.write(json.dumps(row) + "\n")
+        print(f"{record} {pb.meas.time0[:10]} RMSE {fit.rmse:.3f} kappa {v['kappa']:.3g} C "
+              f"{v['C'] / 1e6:.3g} MJ k/C {v['kappa'] / v['C'] * 1e6:.3g} mm2/s"
+              + (f" at a bound: {at}" if at else ""), flush=True)
+    return sorted(rows, key=lambda r: r["start_h"])
+
+
+def spread(rows: list[dict], key: str) -> dict:
+    """Median of ``key`` over the days, its range relative to the median, and the share of
+    days within +-20 % of it."""
+    x = np.array([r[key] for r in rows], float)
+    med = float(np.median(x))
+    rel = x / med - 1.0
+    return {"median": med, "min_rel": float(rel.min()), "max_rel": float(rel.max()),
+            "within_20": int(np.sum(np.abs(rel) <= 0.2)), "n": int(x.size)}
+
+
+def main_daily(args: list[str]) -> None:
+    record = args[0]
+    out = Path(args[args.index("--out") + 1]) if "--out" in args else None
+    rows = daily(record, out)
+    for key in ("diffusivity", "kappa", "C"):
+        s = spread(rows, key)
+        print(f"{record} {key}: median {s['median']:.4g}, {100 * s['min_rel']:+.0f} % .. "
+              f"{100 * s['max_rel']:+.0f} %, {s['within_20']} of {s['n']} days within +-20 %")
+    bound = sum(bool(r["at_bound"]) for r in rows)
+    print(f"{record}: {bound} of {len(rows)} days with a parameter at a bound")
+
+
 if __name__ == "__main__":
-    main(sys.argv[1:] or list(CASES))
+    if sys.argv[1:2] == ["daily"]:
+        main_daily(sys.argv[2:])
+    elif sys.argv[1:2] == ["gain"]:
+        for rec in sys.argv[2:] or list(GAIN):
+            gain(rec)
+    else:
+        main(sys.argv[1:] or list(CASES))

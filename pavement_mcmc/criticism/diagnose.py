@@ -50,6 +50,7 @@ def diagnose(
     candidates: list[str] | None = None,
     holdout: bool = True,
     forecast: bool | dict = False,
+    energy_law: bool | None = None,
 ) -> Diagnosis:
     """Diagnose a fitted model.
 
@@ -64,6 +65,9 @@ def diagnose(
     forecast : forecast skill of the base fit and of every candidate, and the claim rule that
         rests on it (:mod:`.entries`): True or options of :func:`~.forecast.forecast`. A window
         too short to hold a part out falls back to the in-sample rule.
+    energy_law : also try the surface energy balance as a candidate
+        (:func:`~.ranking.energy_candidate`: None where the energy check says the surface
+        boundary is wrong, True always, False never).
 
     Returns
     -------
@@ -80,7 +84,8 @@ def diagnose(
         alarm = any(f.level == "alarm" and f.quantity in ("kappa", "C") for f in findings)
         energy = energy_balance(problem, values, top_fit=alarm or bool(problem.model.plates))
     ranking = (rank_missing_effects(problem, values, candidates, holdout=holdout, energy=energy,
-                                    report=rep, forecast=forecast) if rank else None)
+                                    report=rep, forecast=forecast, energy_law=energy_law)
+               if rank else None)
     fc = None if ranking is None else ranking.forecast
     if fc is None and forecast is not False:
         try:

@@ -87,6 +87,11 @@ PARTIAL = 0.5
 FORECAST_THRESHOLD = 15.0
 
 
+#: the surface energy balance as a candidate (:func:`~.ranking.energy_candidate`): one
+#: Priestley-Taylor coefficient for the window, so its forecast needs no rule for a day it
+#: has not seen
+ENERGY = "energy_balance_window"
+
 #: per-sensor nuisances: claimable only if their offsets are not one coherent depth profile
 PER_SENSOR = ("sensor_bias", "sensor_depth")
 

@@ -58,6 +58,7 @@ from ..physics.materials import check_values, declared_material
 from .candidates import finer_h_spec, fit_extension, h_spec_of, h_start, variant
 from .entries import (
     DATA_THRESHOLD,
+    ENERGY,
     FLOOR,
     PER_SENSOR,
     THRESHOLD,
@@ -121,6 +122,21 @@ def _points_at(entries: list[Entry], energy, threshold: float) -> dict | None:
         return None
     return {"where": "surface energy balance", "candidates": [e.name for e in surf],
             "energy_verdict": energy.verdict}
+
+
+def energy_candidate(problem, energy, flag: bool | None) -> bool:
+    """Whether the ranking tries :data:`ENERGY`: a law for the whole surface balance (H with the
+    wind, LE by Priestley-Taylor) in place of the free h(t). Not a catalogue candidate (it nests
+    wind_convection and evapotranspiration and would shadow them; the forecast rule's margin was
+    calibrated without it), so by default (``flag`` None) only where the energy check
+    (:mod:`.energy`) says the surface boundary is wrong -- an impossible kappa or C, a plate
+    the model cannot follow: it is the physics that check names. ``flag`` True: whenever the
+    model's h(t) is free; False: never. A record without net radiation is skipped with the
+    reason (the extension refuses it)."""
+    m = problem.model
+    if flag is False or m.top_measured or m.replaces_h:
+        return False
+    return flag is True or (energy is not None and energy.surface_wrong)
 
 
 def _entry(name, desc, ref: Fit, cand: Fit, ext, patterns, base_impossible, declared) -> Entry:
@@ -187,6 +203,7 @@ def rank_missing_effects(
     energy=None,
     report: ResidualReport | None = None,
     forecast: bool | dict = False,
+    energy_law: bool | None = None,
 ) -> Ranking:
     """Rank the catalogue's extensions (and a finer h(t)) by how much they would lower the misfit.
 
@@ -208,6 +225,9 @@ def rank_missing_effects(
     forecast : claim by forecast skill (:mod:`.entries`, forecast rule): True, or a dict of
         options of :func:`~.forecast.forecast` (``origins``, ``horizon``, ``rule``); False: the
         in-sample rule alone.
+    energy_law : also try the surface energy balance :data:`ENERGY` (:func:`energy_candidate`:
+        None where the energy check says the surface boundary is wrong, True always, False
+        never); scored and claimed by the same rule as the catalogue.
 
     Returns
     -------
@@ -222,6 +242,8 @@ def rank_missing_effects(
     impossible = _impossible(base, declared)
     present = {e.name for e in problem.model.extensions}
     names = [n for n in (candidates or [FINER_H, *candidate_names()]) if n not in present]
+    if candidates is None and energy_candidate(problem, energy, energy_law):
+        names.append(ENERGY)
     entries: list[Entry] = []
     skipped: dict[str, str] = {}
     h_spec = h_spec_of(problem)

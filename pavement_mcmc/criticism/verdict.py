@@ -7,7 +7,7 @@ refit's (both MAP fits of the same data); a candidate that helps without explain
 
 from __future__ import annotations
 
-from .entries import DATA_THRESHOLD, FORECAST_THRESHOLD
+from .entries import DATA_THRESHOLD, ENERGY, FORECAST_THRESHOLD
 from .residuals import ResidualReport, noise_like
 
 
@@ -64,6 +64,10 @@ def forecast_sentence(best, entries, fbase) -> str:
     if fbase is None:
         return ""
     period = f"the held-out {fbase.horizon:g} h"
+    if best is not None and best.forecast_gain is not None and not best.forecasts_better:
+        return (f" It is claimed for the plausibility of its kappa and C, not by its forecast: "
+                f"RMSE of {period} {fbase.rmse_sigma:.2f} σ -> {best.forecast_rmse_sigma:.2f} σ, "
+                f"F = {best.forecast_gain:.1f} <= {FORECAST_THRESHOLD:g}.")
     if best is not None and best.forecast_gain is not None:
         return (f" It forecasts {period} from the forcing alone better than the base model: "
                 f"RMSE {fbase.rmse_sigma:.2f} σ -> {best.forecast_rmse_sigma:.2f} σ (gain F = "
@@ -83,6 +87,29 @@ def forecast_sentence(best, entries, fbase) -> str:
             f"{top.forecast_rmse_sigma:.2f} σ, F = {top.forecast_gain:.0f}{why}).")
 
 
+def energy_sentence(entries, base, fbase) -> str:
+    """How the surface energy balance (:data:`~.entries.ENERGY`) did, with its figures, when the
+    ranking tried it ('' otherwise): named by its forecast or not, and why not."""
+    e = next((x for x in entries if x.name == ENERGY), None)
+    if e is None:
+        return ""
+    txt = (f" The surface energy balance ({ENERGY}: {', '.join(e.values)} in place of the "
+           f"free h(t)) was tried: in sample the MAP RMSE {rmse_change(base.rmse, e.rmse)}")
+    if e.forecast_gain is None or fbase is None:
+        return txt + "; no forecast (the window is too short to hold a part out)."
+    txt += (f"; its forecast of the held-out {fbase.horizon:g} h has RMSE "
+            f"{e.forecast_rmse_sigma:.2f} σ against the base model's {fbase.rmse_sigma:.2f} σ, "
+            f"F = {e.forecast_gain:.1f}")
+    if e.detected:
+        return txt + f" > {FORECAST_THRESHOLD:g}: named by forecast."
+    why = ([f"F <= {FORECAST_THRESHOLD:g}"] if e.forecast_gain <= FORECAST_THRESHOLD else []) + (
+        ["it fits worse in sample"] if e.score < -e.threshold else []) + (
+        [f"{', '.join(e.at_bound)} at a bound"] if e.at_bound else [])
+    phi = (1 + fbase.rho) / (1 - fbase.rho)
+    return txt + (f": not named by forecast ({'; '.join(why)}; the {fbase.n} held-out data, "
+                  f"lag-1 {fbase.rho:.2f}, count as {fbase.n / phi:.1f} independent ones).")
+
+
 def make_verdict(best, entries, lookalikes, rep: ResidualReport, base, none, findings,
                  points=None, fbase=None) -> str:
     """One paragraph: where the evidence points, the missing effect (or none, or "none of
@@ -90,6 +117,7 @@ def make_verdict(best, entries, lookalikes, rep: ResidualReport, base, none, fin
     are not claimed."""
     txt = (_where(points, entries) if points else "") + _verdict_main(
         best, entries, lookalikes, rep, base, none) + forecast_sentence(best, entries, fbase)
+    txt += energy_sentence(entries, base, fbase)
     alarms = [f for f in findings if f.level == "alarm"]
     if alarms:
         txt += (" The base fit is physically impossible (" + "; ".join(f.text() for f in alarms)
@@ -100,7 +128,8 @@ def make_verdict(best, entries, lookalikes, rep: ResidualReport, base, none, fin
 def _verdict_main(best, entries, lookalikes, rep, base, none) -> str:
     if best is not None:
         head = "Missing effect" if none is None else "Missing effect (partly)"
-        rule = "forecast gain" if best.forecast_gain is not None else "score"
+        rule = ("forecast gain" if best.forecast_gain is not None and best.forecasts_better
+                else "plausibility" if best.plausibility_claim else "score")
         txt = (f"{head}: {best.name} (by its {rule}; in sample: score {best.score:.0f}, data "
                f"part {best.data_score:.0f}, the MAP RMSE {rmse_change(base.rmse, best.rmse)} = "
                f"{best.rmse_sigma:.2f} σ).")
@@ -110,7 +139,8 @@ def _verdict_main(best, entries, lookalikes, rep, base, none) -> str:
                     "MJ m-3 K-1 back into the range of ground materials without a worse fit.")
         others = [n for n in lookalikes if n != best.name]
         if others:
-            txt += (f" Look-alikes with a similar {rule}: {', '.join(others)}; "
+            alike = "forecast gain" if best.forecast_gain is not None else "score"
+            txt += (f" Look-alikes with a similar {alike}: {', '.join(others)}; "
                     f"{best.name} predicts held-out sensors best.")
         if best.name == "radiation_factor":
             txt += (

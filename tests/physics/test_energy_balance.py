@@ -13,7 +13,7 @@ import pytest
 
 from pavement_mcmc.data import load_case
 from pavement_mcmc.physics import Model, candidate_names, extension_names
-from pavement_mcmc.physics.catalogue.energy import R_REF, day_index, energy_partition
+from pavement_mcmc.physics.catalogue.energy import day_index, energy_partition
 from pavement_mcmc.physics.catalogue.surface import priestley_taylor_weight
 from pavement_mcmc.posterior import build_problem, find_map
 from pavement_mcmc.synthetic import SyntheticSpec
@@ -98,18 +98,39 @@ def test_partition_closes_and_matches_the_laws(twin):
     np.testing.assert_allclose(mid["G_Rn"] + mid["LE_Rn"] + mid["H_Rn"], 1.0, atol=1e-12)
 
 
-def test_no_wind_fallback_uses_the_daytime_heating(twin):
+def test_no_wind_fallback_has_one_transfer_coefficient_and_no_eb_h1(twin):
+    """Without a wind column the law has no drive for eb_h1: it is not a parameter (before, a
+    stand-in drive max(Rn, 0)/500 kept it, and the desert record ran it to its bound 0)."""
     pb, _ = twin
     meas = replace(pb.meas, wind=None)
     m = Model(meas, pb.model.grid, pb.model.h_basis, ["energy_balance"])
     space = m.parameter_space()
-    assert space["eb_h1"].unit == "W m-2 K-1" and "no wind" in space["eb_h1"].description
+    assert "eb_h1" not in space.names
+    assert space.free == ["kappa", "C", "eb_h0", "eb_alpha_1", "eb_alpha_2"]
+    assert "no wind" in space["eb_h0"].description
     assert "h(t) from energy_balance" in m.describe() and not any(n.startswith("h_") for n in space.free)
-    p = {k: np.array([v]) for k, v in space.value_dict().items()}
-    h = m.coefficients(p).h[0]
-    drive = np.clip(meas.q_net, 0, None) / R_REF
-    hH = p["eb_h0"][0] + p["eb_h1"][0] * drive
-    np.testing.assert_allclose(h, 0.5 * (hH[1:] + hH[:-1]), rtol=1e-12)
+    p = {k: np.array([v, 2.0 * v]) for k, v in space.value_dict().items()}
+    h = m.coefficients(p).h
+    np.testing.assert_allclose(h, np.repeat(p["eb_h0"][:, None], meas.t.size - 1, axis=1),
+                               rtol=1e-12)
+
+
+def test_window_alpha_variant_has_one_coefficient(twin):
+    """``energy_balance_window``: one eb_alpha for the window, LE = eb_alpha w(T_a) max(Rn, 0)
+    at every time, equal to the daily law with every day's alpha the same."""
+    pb, _ = twin
+    m1 = Model(pb.meas, pb.model.grid, pb.model.h_basis, ["energy_balance_window"])
+    md = Model(pb.meas, pb.model.grid, pb.model.h_basis, ["energy_balance"])
+    assert [n for n in m1.parameter_space().names if n.startswith("eb_alpha")] == ["eb_alpha"]
+    assert "energy_balance_window" not in candidate_names()
+    p1 = {k: np.array([v]) for k, v in m1.parameter_space().value_dict().items()}
+    p1["eb_alpha"] = np.array([0.7])
+    pd = {k: np.array([v]) for k, v in md.parameter_space().value_dict().items()}
+    pd.update(eb_alpha_1=np.array([0.7]), eb_alpha_2=np.array([0.7]))
+    np.testing.assert_allclose(m1.predict(p1), md.predict(pd), rtol=1e-12)
+    part = energy_partition(m1, p1)
+    w = priestley_taylor_weight(pb.meas.T_air) * np.clip(pb.meas.q_net, 0, None)
+    np.testing.assert_allclose(part.LE[0], 0.7 * w, rtol=1e-12)
 
 
 def test_one_alpha_per_day_and_the_forecast_day_keeps_the_last():
@@ -163,3 +184,25 @@ def test_fit_output_names_the_midday_partition(twin):
     assert line.startswith("surface energy balance at midday") and "LE/Rn 0.00" in line
     base = build_problem(load_case(REPO / "runs" / "caseA.toml"))
     assert _energy_line(SimpleNamespace(problem=base, table=[])) is None
+
+
+def test_forecast_keeps_the_last_fitted_days_alpha(twin):
+    """A forecast past the training days keeps the last fitted day's Priestley-Taylor
+    coefficient (the daily coefficients are one parameter group). Before, a future day's
+    coefficient stayed at its start value 0.5: the desert window's next-day forecast then
+    evaporated 0.5 of the net radiation from a dry soil (forecast RMSE 2.5 against 0.84 degC)."""
+    from pavement_mcmc.criticism.forecast import future_values, split_rows, training_problem
+
+    pb, _ = twin
+    train = training_problem(pb, split_rows(pb.meas.t, 20.0))
+    assert [n for n in train.space.names if n.startswith("eb_alpha")] == ["eb_alpha_1"]
+    fitted = {**train.space.value_dict(), "eb_alpha_1": 0.93, "kappa": 1.1}
+    vals = future_values(pb, train, fitted)
+    assert vals["eb_alpha_2"] == 0.93 and vals["kappa"] == 1.1
+
+
+def test_needs_net_radiation(twin):
+    pb, _ = twin
+    meas = replace(pb.meas, q_net=np.zeros_like(pb.meas.q_net))
+    with pytest.raises(ValueError, match="net radiation"):
+        Model(meas, pb.model.grid, pb.model.h_basis, ["energy_balance"]).parameter_space()

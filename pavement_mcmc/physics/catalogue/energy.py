@@ -14,16 +14,22 @@ interval is gone), so the model can predict a day it has not seen from its forci
   model's surface temperature, ``G`` the heat flux into the ground (W m-2).
 - Sensible heat by a bulk transfer law, :math:`h_H = h_0 + h_1 u` with the measured wind ``u``
   (m s-1) -- the form of pvlib's Faiman model; :math:`\rho c_p C_H \approx 4`-7 J m-3 K-1 over
-  short grass at 2 m. **Without a wind column** (the fallback, e.g. a desert station) the wind is
-  replaced by the daytime heating of the surface, :math:`h_H = h_0 + h_1 \max(R_n, 0) / R_0`
-  with :math:`R_0 = 500` W m-2: free convection over a sunlit surface grows with its heating,
-  calm nights keep :math:`h_0`. ``eb_h1`` is then in W m-2 K-1 (its value at ``R_n = R_0``).
+  short grass at 2 m. **Without a wind column** (the fallback, e.g. a desert station) the law
+  has no drive to scale: :math:`h_H = h_0`, one transfer coefficient for the window, and
+  ``eb_h1`` is not a parameter (a stand-in drive such as the daytime heating
+  :math:`\max(R_n, 0)` was tried on the desert record: its coefficient went to its bound 0,
+  the data did not ask for it).
 - Latent heat in the Priestley–Taylor form with the net radiation as the available energy
   (the ground heat flux, 5-20 % of it by day over grass, is left in: ``eb_alpha`` is about
   :math:`\alpha_{PT}(1 - G/R_n)`, ~1.0-1.1 over well-watered grass, 0 over a dry surface), one
   coefficient per day of the window (24 h from its start; the surface dries or is wetted
-  slowly), ``s`` the slope of the saturation vapour pressure (Tetens) and ``\gamma = 0.066`` kPa
-  K-1. Relative humidity is not in the CSV contract, so the evaporative demand is not used: a
+  slowly; one parameter group ``eb_alpha``), or with ``energy_balance_window`` one coefficient
+  for the whole window (fewer parameters; a forecast needs no rule for a day it has not seen).
+  ``s`` is the slope of the saturation vapour pressure (Tetens), ``\gamma = 0.066`` kPa K-1.
+  Over a dry soil the data may ask for no latent heat at all (the desert record's 72 h window
+  runs the coefficient to its bound 0): fix it there (``[parameters.eb_alpha] value = 0.0,
+  vary = false``) instead of leaving it at the bound. Relative humidity is not in the CSV
+  contract, so the evaporative demand is not used: a
   drying surface shows as a falling ``eb_alpha`` from day to day.
 
 A grass or thatch layer is added by listing ``canopy`` (a skin node with heat capacity above
@@ -46,8 +52,6 @@ from ..base import Extension
 from ..registry import register_extension
 from .surface import priestley_taylor_weight
 
-#: net radiation that stands for 1 unit of "wind" in the no-wind fallback, W m-2
-R_REF = 500.0
 DAY = 86400.0
 
 
@@ -82,29 +86,37 @@ class EnergyBalance(Extension):
         return [f"eb_alpha_{d + 1}" for d in range(n_days_of(meas.t))]
 
     def parameters(self, meas):
-        wind = meas.wind is not None
-        h1 = (Parameter("eb_h1", 5.0, 0.0, 40.0, prior=TruncatedNormal(5.0, 3.0), unit="J m-3 K-1",
-                        description="wind sensitivity of the sensible heat transfer coefficient")
-              if wind else
-              Parameter("eb_h1", 5.0, 0.0, 60.0, prior=TruncatedNormal(5.0, 5.0), unit="W m-2 K-1",
-                        description=f"daytime convective sensible heat transfer at R_n = {R_REF:g} "
-                                    "W m-2 (no wind column)"))
-        return [
-            Parameter("eb_h0", 4.0, 0.0, 60.0, prior=TruncatedNormal(4.0, 4.0), unit="W m-2 K-1",
-                      description="still-air sensible heat transfer coefficient"),
-            h1,
-            *[Parameter(n, 0.5, 0.0, 1.6, prior=Uniform(0.0, 1.6), unit="-",
-                        description=f"Priestley-Taylor coefficient on R_n, day {d + 1}")
-              for d, n in enumerate(self.alpha_names(meas))],
-        ]
+        q = getattr(meas, "q_net", None)
+        if q is None or not np.any(np.asarray(q, float) != 0.0):
+            raise ValueError(f"{self.name} needs the net radiation (a 'q_net' column, W m-2)")
+        h = [Parameter("eb_h0", 4.0, 0.0, 60.0, prior=TruncatedNormal(4.0, 4.0), unit="W m-2 K-1",
+                       description="still-air sensible heat transfer coefficient"
+                       if meas.wind is not None else
+                       "sensible heat transfer coefficient (no wind column: one for the window)")]
+        if meas.wind is not None:
+            h.append(Parameter("eb_h1", 5.0, 0.0, 40.0, prior=TruncatedNormal(5.0, 3.0),
+                               unit="J m-3 K-1", description="wind sensitivity of the sensible "
+                               "heat transfer coefficient"))
+        names = self.alpha_names(meas)
+        # one group for the daily coefficients: `[parameters.eb_alpha]` sets them all, and a
+        # forecast keeps the last fitted day's for the days after it (criticism/forecast.py)
+        group = "" if names == ["eb_alpha"] else "eb_alpha"
+        return [*h, *[Parameter(n, 0.5, 0.0, 1.6, prior=Uniform(0.0, 1.6), unit="-",
+                                description="Priestley-Taylor coefficient on R_n, "
+                                + (f"day {d + 1}" if group else "the window"), group=group)
+                      for d, n in enumerate(names)]]
 
     def start_values(self, meas, base):
+        if meas.wind is None:
+            return [{"eb_h0": 3.0}, {"eb_h0": 10.0}]
         return [{"eb_h0": 3.0, "eb_h1": 3.0}, {"eb_h0": 8.0, "eb_h1": 6.0}]
 
     def transfer(self, p, meas) -> np.ndarray:
         """Sensible heat transfer coefficient h_H at each observation time (n_sets, n_obs)."""
-        drive = meas.wind if meas.wind is not None else np.clip(meas.q_net, 0.0, None) / R_REF
-        return p["eb_h0"][:, None] + p["eb_h1"][:, None] * np.asarray(drive, float)[None, :]
+        h0 = np.broadcast_to(p["eb_h0"][:, None], (p["eb_h0"].size, meas.t.size))
+        if meas.wind is None:
+            return h0.copy()
+        return h0 + p["eb_h1"][:, None] * np.asarray(meas.wind, float)[None, :]
 
     def latent(self, p, meas) -> np.ndarray:
         """Latent heat flux LE at each observation time (n_sets, n_obs), W m-2."""
@@ -118,6 +130,18 @@ class EnergyBalance(Extension):
         hH = self.transfer(p, model.meas)
         coeffs.h = 0.5 * (hH[:, :-1] + hH[:, 1:])
         coeffs.q -= self.latent(p, model.meas)
+
+
+
+@register_extension
+class EnergyBalanceWindow(EnergyBalance):
+    """The surface energy balance with one Priestley–Taylor coefficient ``eb_alpha`` for the
+    whole window (a surface whose wetness does not change within it; module doc)."""
+
+    name = "energy_balance_window"
+
+    def alpha_names(self, meas) -> list[str]:
+        return ["eb_alpha"]
 
 
 @dataclass(frozen=True)
