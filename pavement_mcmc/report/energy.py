@@ -6,10 +6,9 @@ from __future__ import annotations
 
 import html
 
-from ..physics.catalogue.energy import EnergyBalance, energy_partition
+from ..physics.catalogue.energy import MIDDAY_NAMES, EnergyBalance, energy_partition
 
 TITLE = "Surface energy balance (H, LE, G)"
-_NAMES = {"bowen": "Bowen ratio H/LE", "G_Rn": "G/Rn", "LE_Rn": "LE/Rn", "H_Rn": "H/Rn"}
 
 
 def energy_section(problem, view, n_draws: int = 100):
@@ -20,7 +19,7 @@ def energy_section(problem, view, n_draws: int = 100):
     if not any(isinstance(e, EnergyBalance) for e in problem.model.extensions):
         return None
     part = energy_partition(problem.model, problem.space.expand(view.draws(n_draws)))
-    rows = "".join(f"<tr><td>{html.escape(_NAMES[k])}</td><td>{m:.2f}</td><td>{lo:.2f}</td>"
+    rows = "".join(f"<tr><td>{html.escape(MIDDAY_NAMES[k])}</td><td>{m:.2f}</td><td>{lo:.2f}</td>"
                    f"<td>{hi:.2f}</td></tr>" for k, (m, lo, hi) in part.summary().items())
     frag = ("<p>The net radiation Rn (measured) split by the fitted laws into sensible heat H "
             "(bulk transfer with the wind, or the no-wind fallback), latent heat LE "

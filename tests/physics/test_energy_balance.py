@@ -206,3 +206,16 @@ def test_needs_net_radiation(twin):
     meas = replace(pb.meas, q_net=np.zeros_like(pb.meas.q_net))
     with pytest.raises(ValueError, match="net radiation"):
         Model(meas, pb.model.grid, pb.model.h_basis, ["energy_balance"]).parameter_space()
+
+
+def test_the_midday_line_says_when_the_bowen_ratio_is_undefined():
+    """With no latent heat (the dry desert, alpha fixed at 0) H/LE has no value: the line a
+    user reads says so instead of 'Bowen ratio H/LE nan'."""
+    from pavement_mcmc.physics.catalogue.energy import Partition
+
+    t = np.arange(0.0, 24 * 3600.0, 3600.0)
+    Rn = np.clip(500 * np.sin(np.pi * (t / 3600.0 - 6) / 12), 0, None)[None, :]
+    part = Partition(t, Rn, 0.7 * Rn, 0.0 * Rn, 0.3 * Rn)
+    text = part.summary_text()
+    assert "nan" not in text and "Bowen ratio H/LE undefined (no latent heat)" in text
+    assert "G/Rn 0.30" in text and "LE/Rn 0.00" in text

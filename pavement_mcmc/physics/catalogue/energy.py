@@ -175,17 +175,23 @@ class Partition:
         """Midday ratios (:meth:`midday`) over the sets: ``{name: (median, lo, hi)}`` with the
         central ``level`` % interval."""
         q = [50.0, 50 - level / 2, 50 + level / 2]
-        return {k: tuple(float(x) for x in np.nanpercentile(v, q)) for k, v in self.midday().items()}
+        with np.errstate(invalid="ignore"):  # H/LE is infinite without latent heat
+            return {k: tuple(float(x) for x in np.nanpercentile(v, q))
+                    for k, v in self.midday().items()}
 
     def summary_text(self, level: float = 95.0) -> str:
         """The midday partition in one line a micrometeorologist reads."""
         s = self.summary(level)
-        names = {"bowen": "Bowen ratio H/LE", "G_Rn": "G/Rn", "LE_Rn": "LE/Rn", "H_Rn": "H/Rn"}
         band = self.H.shape[0] > 1
-        parts = [f"{names[k]} {m:.2f}" + (f" [{lo:.2f}, {hi:.2f}]" if band else "")
+        parts = [f"{MIDDAY_NAMES[k]} {m:.2f}" + (f" [{lo:.2f}, {hi:.2f}]" if band else "")
+                 if np.isfinite(m) else f"{MIDDAY_NAMES[k]} undefined (no latent heat)"
                  for k, (m, lo, hi) in s.items()]
         return ("surface energy balance at midday (R_n above half its maximum"
                 + (f"; {level:g} % intervals" if band else "") + "): " + ", ".join(parts))
+
+
+#: the midday ratios of :meth:`Partition.midday`, as a table or a line names them
+MIDDAY_NAMES = {"bowen": "Bowen ratio H/LE", "G_Rn": "G/Rn", "LE_Rn": "LE/Rn", "H_Rn": "H/Rn"}
 
 
 def energy_partition(model, p: dict[str, np.ndarray]) -> Partition:
