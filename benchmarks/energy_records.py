@@ -1,9 +1,9 @@
 """The surface energy balance on the two real records: base fit against the fit with
 ``energy_balance``, at the MAP (posterior/map.py through criticism.fitting.refit).
 
-    nice -n 5 /work/main/.venv/bin/python benchmarks/energy_records.py [grass|desert ...]
-    nice -n 5 /work/main/.venv/bin/python benchmarks/energy_records.py daily grass|desert [--out F]
-    nice -n 5 /work/main/.venv/bin/python benchmarks/energy_records.py gain [grass|desert ...]
+    nice -n 5 python benchmarks/energy_records.py [grass|desert ...]
+    nice -n 5 python benchmarks/energy_records.py daily grass|desert [--out F]
+    nice -n 5 python benchmarks/energy_records.py gain [grass|desert ...]
 
 For each record (runs/grass*.toml: 72 h from 2020-04-05 00Z; runs/desert*.toml: 72 h from
 2025-07-11 07Z) and each model it prints the in-sample RMSE (degC and in sigma), kappa, C,
