@@ -1,0 +1,206 @@
+"""The Crank-Nicolson and backward-Euler steps of :mod:`.cn` on explicit SIMD vectors of sets.
+
+Internal module; notation and factorisation in :mod:`pavement_mcmc.solver.kernels.cn`. Same
+arithmetic, same rounding as ``cn._cn_step`` / ``cn._be_step`` (the fused multiply-adds those get
+under ``fastmath={"contract"}`` are written out with :func:`.simd.vfma`), but the loop order is
+turned round: sets in chunks of ``W`` (one vector) outside, nodes inside, so that ``T[i]``,
+``T[i+1]`` and ``R[i+1]`` of the bottom-up sweep and ``T[i-1]`` of the top-down one stay in
+registers. Per node and step that is 7 loads and 2 stores of a vector (11 and 2 before), and no
+per-row loop set-up. The arrays' set axis must be padded to a multiple of ``W`` (``cn._cn_block``
+pads with copies of its last set).
+
+``z`` is the block's ``(6, n_sets)`` scratch of ``cn._prepare``: rows ``hc = 2``, ``hh = 3``,
+``invD0 = 4``. ``qB`` holds the block's surface flux ``q`` at the observation times (``(n_obs,
+n_sets)``); ``j`` is the interval, ``w*`` the interpolation weights of the step's ends within it.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit, prange
+
+from .cn import _FM, _block_inputs, _cn_factor, _lagged_kappa, _lin, _rates, _store, _surface_pivot
+from .simd import W, vadd, vfma, vload, vmul, vsplat, vstore, vsub
+
+_STAGGER = 80  # doubles: consecutive work arrays start 640 B apart modulo 4 KiB (no 4K aliasing)
+
+
+@njit(cache=True)
+def _topdown(T, R, l, invD, s, prev):
+    """``T[0] = prev``, then ``T[i] = (R[i] + l[i] T[i-1]) invD[i]`` for the chunk at set ``s``."""
+    vstore(T, 0, s, prev)
+    for i in range(1, T.shape[0]):
+        prev = vmul(vfma(vload(l, i, s), prev, vload(R, i, s)), vload(invD, i, s))
+        vstore(T, i, s, prev)
+
+
+@njit(cache=True)
+def cn_step(T, R, l, u, g, invD, z, Ta_sum, Tb_sum, qB, j, w0, w1, Tt1):
+    """One CN step in place (``cn._cn_step``): ``Ta_sum = T_air^n + T_air^{n+1}``, ``Tb_sum``
+    likewise, ``Tt1`` the Dirichlet top at the step's end (0 for a Robin top)."""
+    N, nbp = T.shape
+    ta, tb, tt, v0, v1 = vsplat(Ta_sum), vsplat(Tb_sum), vsplat(Tt1), vsplat(w0), vsplat(w1)
+    for s in range(0, nbp, W):
+        qa = vload(qB, j, s)
+        dq = vsub(vload(qB, j + 1, s), qa)
+        qsum = vmul(vload(z, 2, s), vadd(vfma(v0, dq, qa), vfma(v1, dq, qa)))
+        hh = vload(z, 3, s)
+        if N == 1:
+            t = vload(T, 0, s)
+            rr = vadd(vfma(hh, vsub(ta, t), vfma(vload(u, 0, s), vsub(tb, t), t)), qsum)
+            vstore(T, 0, s, vmul(rr, vload(z, 4, s)))
+            continue
+        tn = vload(T, N - 1, s)  # T[i+1], T[i], R[i+1] of the sweep ride along in registers
+        t = vload(T, N - 2, s)
+        r = vfma(vload(u, N - 1, s), vsub(tb, tn), vfma(vload(l, N - 1, s), vsub(t, tn), tn))
+        vstore(R, N - 1, s, r)
+        for i in range(N - 2, 0, -1):
+            tm = vload(T, i - 1, s)
+            r0 = vfma(vload(u, i, s), vsub(tn, t), vfma(vload(l, i, s), vsub(tm, t), t))
+            r = vfma(vload(g, i + 1, s), r, r0)
+            vstore(R, i, s, r)
+            tn = t
+            t = tm
+        rr = vfma(hh, vsub(ta, t), vfma(vload(u, 0, s), vsub(tn, t), t))
+        rr = vfma(vload(g, 1, s), r, vadd(rr, qsum))
+        _topdown(T, R, l, invD, s, vfma(rr, vload(z, 4, s), tt))
+
+
+@njit(cache=True)
+def be_step(T, R, l, u, g, invD, z, Ta1, Tb1, qB, j, wq, Tt1):
+    """One backward-Euler half step in place (``cn._be_step``): ``Ta1``, ``Tb1``, ``Tt1`` at the
+    step's end, ``wq`` its weight for ``q`` within interval ``j``."""
+    N, nbp = T.shape
+    ta, tb, tt, vw = vsplat(Ta1), vsplat(Tb1), vsplat(Tt1), vsplat(wq)
+    for s in range(0, nbp, W):
+        qa = vload(qB, j, s)
+        q1 = vmul(vload(z, 2, s), vfma(vw, vsub(vload(qB, j + 1, s), qa), qa))
+        hh = vload(z, 3, s)
+        if N == 1:
+            rr = vadd(vfma(hh, ta, vfma(vload(u, 0, s), tb, vload(T, 0, s))), q1)
+            vstore(T, 0, s, vmul(rr, vload(z, 4, s)))
+            continue
+        r = vfma(vload(u, N - 1, s), tb, vload(T, N - 1, s))
+        vstore(R, N - 1, s, r)
+        for i in range(N - 2, 0, -1):
+            r = vfma(vload(g, i + 1, s), r, vload(T, i, s))
+            vstore(R, i, s, r)
+        rr = vfma(vload(g, 1, s), r, vadd(vfma(hh, ta, vload(T, 0, s)), q1))
+        _topdown(T, R, l, invD, s, vfma(rr, vload(z, 4, s), tt))
+
+
+@njit(cache=True)
+def _work_arrays(n, rows, nbp):
+    """``n`` zeroed C-contiguous ``(rows, nbp)`` arrays in one buffer, each 64-byte aligned (a
+    vector is one cache line) and starting ``_STAGGER`` doubles further modulo 4 KiB than the
+    previous one (a load whose address equals a pending store's modulo 4 KiB waits for it)."""
+    stride = -(-rows * nbp // 512) * 512 + _STAGGER
+    buf = np.zeros(n * stride + W)
+    o = (-(buf.ctypes.data // 8)) % W
+    return [buf[o + k * stride : o + k * stride + rows * nbp].reshape((rows, nbp)) for k in range(n)]
+
+
+@njit(cache=True, fastmath=_FM)
+def _padded_inputs(P, s0, nb, ws):
+    """Fill the block's kappa, C, initial state (``ws[0..2]``, as ``cn._block_inputs``), h, q
+    (``ws[3..4]``) and beta (``ws[5][0]``), the sets padded to ``nbp`` columns by copies of the
+    last set (the vector steps run on whole vectors; the copies are computed, never stored)."""
+    kap, C, T = _block_inputs(P, s0, nb)
+    nbp = ws[0].shape[1]
+    for s in range(nbp):
+        k = min(s, nb - 1)
+        for src, dst in ((kap, ws[0]), (C, ws[1]), (T, ws[2])):
+            for i in range(src.shape[0]):
+                dst[i, s] = src[i, k]
+        for i in range(P.hT.shape[0]):
+            ws[3][i, s] = P.hT[i, s0 + k]
+        for i in range(P.qT.shape[0]):
+            ws[4][i, s] = P.qT[i, s0 + k]
+        ws[5][0, s] = P.beta[s0 + k]
+
+
+@njit(cache=True, fastmath=_FM)
+def _prepare(geo, dx0, T_ref, top, nonlin, kap0, CB, beta, r, h, T, Tb0, wk, z):
+    """``cn._prepare`` on the separate work arrays ``wk = (kap, a, c, l, u, g, invD)``."""
+    kap, a, c, l, u, g, invD = wk[0], wk[1], wk[2], wk[3], wk[4], wk[5], wk[6]
+    d0, hs, hc, hh, invD0 = z[0], z[1], z[2], z[3], z[4]
+    if nonlin:
+        _lagged_kappa(kap0, beta, T_ref, T, Tb0, kap)
+        _rates(kap, CB, geo, dx0, a, c, hs)
+    else:
+        _rates(kap0, CB, geo, dx0, a, c, hs)
+    _cn_factor(a, c, r, l, u, g, invD, d0)
+    for s in range(hs.shape[0]):
+        hc[s] = r * hs[s]
+    _surface_pivot(d0, hc, h, invD0, hh, top)
+
+
+@njit(cache=True, fastmath=_FM)
+def _cn_block(P, s0, nb, out):
+    """Crank-Nicolson over all observation intervals for sets ``s0 .. s0+nb-1`` of the
+    :class:`~.cn.Problem` ``P``; fills their columns of ``out`` (n_obs, N+1, S), degC. The sets
+    are padded to a multiple of the vector width ``W``."""
+    T_air, T_bot, T_top, t_obs, substeps = P.T_air, P.T_bot, P.T_top, P.t_obs, P.substeps
+    nonlin, top, n_start, damp = P.nonlin, P.top, P.n_start, P.damp
+    geo, dx0, T_ref = P.geo, P.dx0, P.T_ref
+    N = P.kappaT.shape[0]
+    n_int = substeps.shape[0]
+    nbp = -(-nb // W) * W
+    wk = _work_arrays(10, N, nbp)  # kap, a, c, l, u, g, invD, R, kap0, C
+    T = _work_arrays(1, N, nbp)[0]
+    ins = _work_arrays(3, max(n_int + 1, 7), nbp)  # h, q, z (+ beta in z's last row)
+    ws = (wk[8], wk[9], T, ins[0], ins[1], ins[2][6:7])
+    _padded_inputs(P, s0, nb, ws)
+    kap0, CB, hB, qB, z, bb = wk[8], wk[9], ins[0], ins[1], ins[2], ins[2][6]
+    l, u, g, invD, R = wk[3], wk[4], wk[5], wk[6], wk[7]
+    d0, hc, hh, invD0 = z[0], z[2], z[3], z[4]
+    _store(out, 0, s0, T[:, :nb], T_bot[0])
+    dt_fact = -1.0
+    nstep = 0
+    for j in range(n_int):
+        ns = substeps[j]
+        dt = (t_obs[j + 1] - t_obs[j]) / ns
+        r = 0.5 * dt
+        hj = hB[j]
+        if not nonlin:
+            if dt != dt_fact:  # refactorise only when the step length changes
+                _prepare(geo, dx0, T_ref, top, False, kap0, CB, bb, r, hj, T, 0.0, wk, z)
+                dt_fact = dt
+            else:
+                _surface_pivot(d0, hc, hj, invD0, hh, top)
+        for m in range(ns):
+            w0 = m / ns
+            w1 = (m + 1) / ns
+            Ta1 = _lin(T_air[j], T_air[j + 1], w1)
+            Tb1 = _lin(T_bot[j], T_bot[j + 1], w1)
+            Tt1 = _lin(T_top[j], T_top[j + 1], w1)
+            Tb0 = _lin(T_bot[j], T_bot[j + 1], w0)
+            if nonlin:
+                _prepare(geo, dx0, T_ref, top, True, kap0, CB, bb, r, hj, T, Tb0, wk, z)
+            if nstep < n_start or (m == 0 and damp):  # two backward-Euler half steps
+                wh = (m + 0.5) / ns
+                Tah, Tbh = _lin(T_air[j], T_air[j + 1], wh), _lin(T_bot[j], T_bot[j + 1], wh)
+                be_step(T, R, l, u, g, invD, z, Tah, Tbh, qB, j, wh, _lin(T_top[j], T_top[j + 1], wh))
+                be_step(T, R, l, u, g, invD, z, Ta1, Tb1, qB, j, w1, Tt1)
+            else:
+                Ta0 = _lin(T_air[j], T_air[j + 1], w0)
+                cn_step(T, R, l, u, g, invD, z, Ta0 + Ta1, Tb0 + Tb1, qB, j, w0, w1, Tt1)
+            nstep += 1
+        _store(out, j + 1, s0, T[:, :nb], T_bot[j + 1])
+
+
+@njit(cache=True, parallel=True)
+def cn_parallel(P, block, out):
+    """:func:`_cn_block` over blocks of ``block`` sets, the blocks spread over numba's threads."""
+    S = P.kappaT.shape[1]
+    for b in prange((S + block - 1) // block):
+        s0 = b * block
+        _cn_block(P, s0, min(block, S - s0), out)
+
+
+@njit(cache=True)
+def cn_serial(P, block, out):
+    """As :func:`cn_parallel`, on the calling thread (no thread start-up cost)."""
+    S = P.kappaT.shape[1]
+    for s0 in range(0, S, block):
+        _cn_block(P, s0, min(block, S - s0), out)
