@@ -95,22 +95,25 @@ def test_vector_kernel_equals_adjoint_forward_pass(n_sets):
 
 @njit
 def _fma_lanes(a, b, c, out):
-    for s in range(0, a.shape[1], simd.W):
-        v = simd.vfma(simd.vload(a, 0, s), simd.vload(b, 0, s), simd.vload(c, 0, s))
-        simd.vstore(out, 1, s, simd.vadd(simd.vsub(v, simd.vsplat(0.0)), simd.vmul(v, simd.vsplat(0))))
+    """Row 1 of ``out`` = fma(a, b, c) + 0 * ..., one 16-wide vector then two 8-wide ones."""
+    v = simd.vfma(simd.vload(a, 0, 0, 16), simd.vload(b, 0, 0, 16), simd.vload(c, 0, 0, 16))
+    simd.vstore(out, 1, 0, simd.vadd(simd.vsub(v, simd.vsplat(0.0, v)), simd.vmul(v, simd.vsplat(0, v))))
+    for s in range(16, a.shape[1], simd.W):
+        v = simd.vfma(simd.vload(a, 0, s, 8), simd.vload(b, 0, s, 8), simd.vload(c, 0, s, 8))
+        simd.vstore(out, 1, s, v)
 
 
 def test_simd_fma_rounds_once_and_lanes_land_in_place():
-    """``(1 + e)(1 - e) - 1 = -e^2`` exactly with one rounding (0 with two); row 1 of ``out``
-    gets the lanes in order, row 0 and the rest stay untouched."""
+    """``(1 + e)(1 - e) - 1 = -e^2`` exactly with one rounding (0 with two), in vectors of 16
+    and of 8; row 1 of ``out`` gets the lanes in order, rows 0 and 2 stay untouched."""
     e = 2.0**-30
-    W = 2 * simd.W
-    a = np.full((1, W), 1.0 + e) * np.r_[np.ones(simd.W), 2 * np.ones(simd.W)]
-    b, c = np.full((1, W), 1.0 - e), -np.ones((1, W))
-    out = np.full((3, W), 7.0)
+    n = 32
+    scale = np.repeat([1.0, 2.0, 1.0, 2.0], 8)
+    a = (np.full(n, 1.0 + e) * scale)[None]
+    b, c = np.full((1, n), 1.0 - e), -scale[None]
+    out = np.full((3, n), 7.0)
     _fma_lanes(a, b, c, out)
-    np.testing.assert_array_equal(out[1, : simd.W], -(e**2))
-    np.testing.assert_array_equal(out[1, simd.W :], 2.0 * (1.0 + e) * (1.0 - e) - 1.0)
+    np.testing.assert_array_equal(out[1], -(e**2) * scale)
     assert (a[0, 0] * b[0, 0] + c[0, 0]) == 0.0  # the product rounded first loses it
     np.testing.assert_array_equal(out[[0, 2]], 7.0)
 
@@ -118,7 +121,7 @@ def test_simd_fma_rounds_once_and_lanes_land_in_place():
 def test_simd_refuses_non_contiguous_arrays():
     @njit
     def load(a):
-        return simd.vstore(a, 0, 0, simd.vload(a, 0, 0))
+        return simd.vstore(a, 0, 0, simd.vload(a, 0, 0, 8))
 
     with pytest.raises(Exception, match="C-contiguous 2-D float64"):
         load(np.zeros((4, 16))[:, ::2])

@@ -22,71 +22,99 @@ from numba import njit, prange
 from .cn import _FM, _block_inputs, _cn_factor, _lagged_kappa, _lin, _rates, _store, _surface_pivot
 from .simd import W, vadd, vfma, vload, vmul, vsplat, vstore, vsub
 
+_WIDE = 2 * W  # sets per chunk (two registers: two independent recursions in flight); the rest in W
 _STAGGER = 80  # doubles: consecutive work arrays start 640 B apart modulo 4 KiB (no 4K aliasing)
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _topdown(T, R, l, invD, s, prev):
     """``T[0] = prev``, then ``T[i] = (R[i] + l[i] T[i-1]) invD[i]`` for the chunk at set ``s``."""
     vstore(T, 0, s, prev)
     for i in range(1, T.shape[0]):
-        prev = vmul(vfma(vload(l, i, s), prev, vload(R, i, s)), vload(invD, i, s))
+        prev = vmul(vfma(vload(l, i, s, prev), prev, vload(R, i, s, prev)), vload(invD, i, s, prev))
         vstore(T, i, s, prev)
+
+
+@njit(cache=True, inline="always")
+def _cn_chunk(T, R, l, u, g, invD, z, qB, j, s, ta, tb, tt, v0, v1):
+    """:func:`cn_step` for the sets ``s .. s+n-1``, ``n`` the width of the vectors ``ta`` .. ``v1``."""
+    N = T.shape[0]
+    qa = vload(qB, j, s, ta)
+    dq = vsub(vload(qB, j + 1, s, ta), qa)
+    qsum = vmul(vload(z, 2, s, ta), vadd(vfma(v0, dq, qa), vfma(v1, dq, qa)))
+    hh = vload(z, 3, s, ta)
+    if N == 1:
+        t = vload(T, 0, s, ta)
+        rr = vadd(vfma(hh, vsub(ta, t), vfma(vload(u, 0, s, ta), vsub(tb, t), t)), qsum)
+        vstore(T, 0, s, vmul(rr, vload(z, 4, s, ta)))
+        return
+    tn = vload(T, N - 1, s, ta)  # T[i+1], T[i], R[i+1] of the sweep ride along in registers
+    t = vload(T, N - 2, s, ta)
+    r = vfma(vload(u, N - 1, s, ta), vsub(tb, tn), vfma(vload(l, N - 1, s, ta), vsub(t, tn), tn))
+    vstore(R, N - 1, s, r)
+    for i in range(N - 2, 0, -1):
+        tm = vload(T, i - 1, s, ta)
+        r0 = vfma(vload(u, i, s, ta), vsub(tn, t), vfma(vload(l, i, s, ta), vsub(tm, t), t))
+        r = vfma(vload(g, i + 1, s, ta), r, r0)
+        vstore(R, i, s, r)
+        tn = t
+        t = tm
+    rr = vfma(hh, vsub(ta, t), vfma(vload(u, 0, s, ta), vsub(tn, t), t))
+    rr = vfma(vload(g, 1, s, ta), r, vadd(rr, qsum))
+    _topdown(T, R, l, invD, s, vfma(rr, vload(z, 4, s, ta), tt))
+
+
+@njit(cache=True, inline="always")
+def _be_chunk(T, R, l, u, g, invD, z, qB, j, s, ta, tb, tt, vw):
+    """:func:`be_step` for the sets ``s .. s+n-1``, ``n`` the width of the vectors ``ta`` .. ``vw``."""
+    N = T.shape[0]
+    qa = vload(qB, j, s, ta)
+    q1 = vmul(vload(z, 2, s, ta), vfma(vw, vsub(vload(qB, j + 1, s, ta), qa), qa))
+    hh = vload(z, 3, s, ta)
+    if N == 1:
+        rr = vadd(vfma(hh, ta, vfma(vload(u, 0, s, ta), tb, vload(T, 0, s, ta))), q1)
+        vstore(T, 0, s, vmul(rr, vload(z, 4, s, ta)))
+        return
+    r = vfma(vload(u, N - 1, s, ta), tb, vload(T, N - 1, s, ta))
+    vstore(R, N - 1, s, r)
+    for i in range(N - 2, 0, -1):
+        r = vfma(vload(g, i + 1, s, ta), r, vload(T, i, s, ta))
+        vstore(R, i, s, r)
+    rr = vfma(vload(g, 1, s, ta), r, vadd(vfma(hh, ta, vload(T, 0, s, ta)), q1))
+    _topdown(T, R, l, invD, s, vfma(rr, vload(z, 4, s, ta), tt))
 
 
 @njit(cache=True)
 def cn_step(T, R, l, u, g, invD, z, Ta_sum, Tb_sum, qB, j, w0, w1, Tt1):
     """One CN step in place (``cn._cn_step``): ``Ta_sum = T_air^n + T_air^{n+1}``, ``Tb_sum``
-    likewise, ``Tt1`` the Dirichlet top at the step's end (0 for a Robin top)."""
-    N, nbp = T.shape
-    ta, tb, tt, v0, v1 = vsplat(Ta_sum), vsplat(Tb_sum), vsplat(Tt1), vsplat(w0), vsplat(w1)
-    for s in range(0, nbp, W):
-        qa = vload(qB, j, s)
-        dq = vsub(vload(qB, j + 1, s), qa)
-        qsum = vmul(vload(z, 2, s), vadd(vfma(v0, dq, qa), vfma(v1, dq, qa)))
-        hh = vload(z, 3, s)
-        if N == 1:
-            t = vload(T, 0, s)
-            rr = vadd(vfma(hh, vsub(ta, t), vfma(vload(u, 0, s), vsub(tb, t), t)), qsum)
-            vstore(T, 0, s, vmul(rr, vload(z, 4, s)))
-            continue
-        tn = vload(T, N - 1, s)  # T[i+1], T[i], R[i+1] of the sweep ride along in registers
-        t = vload(T, N - 2, s)
-        r = vfma(vload(u, N - 1, s), vsub(tb, tn), vfma(vload(l, N - 1, s), vsub(t, tn), tn))
-        vstore(R, N - 1, s, r)
-        for i in range(N - 2, 0, -1):
-            tm = vload(T, i - 1, s)
-            r0 = vfma(vload(u, i, s), vsub(tn, t), vfma(vload(l, i, s), vsub(tm, t), t))
-            r = vfma(vload(g, i + 1, s), r, r0)
-            vstore(R, i, s, r)
-            tn = t
-            t = tm
-        rr = vfma(hh, vsub(ta, t), vfma(vload(u, 0, s), vsub(tn, t), t))
-        rr = vfma(vload(g, 1, s), r, vadd(rr, qsum))
-        _topdown(T, R, l, invD, s, vfma(rr, vload(z, 4, s), tt))
+    likewise, ``Tt1`` the Dirichlet top at the step's end (0 for a Robin top); chunks of
+    ``_WIDE`` sets, then one of ``W``."""
+    nbp = T.shape[1]
+    s = 0
+    while s + _WIDE <= nbp:
+        _cn_chunk(T, R, l, u, g, invD, z, qB, j, s, vsplat(Ta_sum, _WIDE), vsplat(Tb_sum, _WIDE),
+                  vsplat(Tt1, _WIDE), vsplat(w0, _WIDE), vsplat(w1, _WIDE))
+        s += _WIDE
+    while s < nbp:
+        _cn_chunk(T, R, l, u, g, invD, z, qB, j, s, vsplat(Ta_sum, W), vsplat(Tb_sum, W), vsplat(Tt1, W),
+                  vsplat(w0, W), vsplat(w1, W))
+        s += W
 
 
 @njit(cache=True)
 def be_step(T, R, l, u, g, invD, z, Ta1, Tb1, qB, j, wq, Tt1):
     """One backward-Euler half step in place (``cn._be_step``): ``Ta1``, ``Tb1``, ``Tt1`` at the
-    step's end, ``wq`` its weight for ``q`` within interval ``j``."""
-    N, nbp = T.shape
-    ta, tb, tt, vw = vsplat(Ta1), vsplat(Tb1), vsplat(Tt1), vsplat(wq)
-    for s in range(0, nbp, W):
-        qa = vload(qB, j, s)
-        q1 = vmul(vload(z, 2, s), vfma(vw, vsub(vload(qB, j + 1, s), qa), qa))
-        hh = vload(z, 3, s)
-        if N == 1:
-            rr = vadd(vfma(hh, ta, vfma(vload(u, 0, s), tb, vload(T, 0, s))), q1)
-            vstore(T, 0, s, vmul(rr, vload(z, 4, s)))
-            continue
-        r = vfma(vload(u, N - 1, s), tb, vload(T, N - 1, s))
-        vstore(R, N - 1, s, r)
-        for i in range(N - 2, 0, -1):
-            r = vfma(vload(g, i + 1, s), r, vload(T, i, s))
-            vstore(R, i, s, r)
-        rr = vfma(vload(g, 1, s), r, vadd(vfma(hh, ta, vload(T, 0, s)), q1))
-        _topdown(T, R, l, invD, s, vfma(rr, vload(z, 4, s), tt))
+    step's end, ``wq`` its weight for ``q`` within interval ``j``; chunks as :func:`cn_step`."""
+    nbp = T.shape[1]
+    s = 0
+    while s + _WIDE <= nbp:
+        _be_chunk(T, R, l, u, g, invD, z, qB, j, s, vsplat(Ta1, _WIDE), vsplat(Tb1, _WIDE),
+                  vsplat(Tt1, _WIDE), vsplat(wq, _WIDE))
+        s += _WIDE
+    while s < nbp:
+        _be_chunk(T, R, l, u, g, invD, z, qB, j, s, vsplat(Ta1, W), vsplat(Tb1, W), vsplat(Tt1, W),
+                  vsplat(wq, W))
+        s += W
 
 
 @njit(cache=True)
