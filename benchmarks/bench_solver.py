@@ -171,7 +171,7 @@ def run_sweep(quick: bool = False) -> list[dict]:
     new kernel beside the previous one (``benchmarks/_previous_cn.py``) in the same process:
     process CPU us per set and per node-step, minima over rounds timed in turn, in
     ``SWEEP_ROUNDS`` rounds of which every other calls the new kernel first; ``ratio`` is
-    new / previous per round. The fit ``call = fixed + per_set x sets`` (16-128 sets)
+    new / previous per round. The fit ``call = fixed + per_set x sets`` (16-64 sets)
     separates the per-call cost (loop set-up over ~670 steps) from the arithmetic a set costs.
     Both kernels take the package's one ``Problem`` class: a second named-tuple class of the same
     name (an own copy in the previous kernel's module) made numba's dispatch of whichever was
@@ -196,7 +196,7 @@ def run_sweep(quick: bool = False) -> list[dict]:
                                         3 if quick else 7))
     best = {key: min(r[key][1] for r in rounds) for key in fns}
     node_steps = (int(grid.substeps.sum()) + grid.n_obs - 1) * (grid.n_nodes - 1)  # + damped halves
-    fit = [n for n in SWEEP if 16 <= n <= 128]  # (at 256 sets the working set leaves L1)
+    fit = [n for n in SWEEP if 16 <= n <= 64]  # (from 128 sets on the working set leaves L1)
     rows = []
     for name in kernels:
         slope, fixed = (float(v) for v in np.polyfit(fit, [best[name, n] for n in fit], 1))
@@ -360,7 +360,7 @@ def main(quick: bool = False) -> None:
     )
     print(format_table(run(quick=quick)))
     print(f"\nserial CN kernel alone, by batch size, new beside previous (process CPU, min of "
-          f"{SWEEP_ROUNDS} rounds, the order alternated; ratio new/previous per round; fit over 16-128 sets)")
+          f"{SWEEP_ROUNDS} rounds, the order alternated; ratio new/previous per round; fit over 16-64 sets)")
     print(format_sweep_table(run_sweep(quick=quick)))
     rows = run_deep(quick=quick)
     if not rows:
