@@ -19,7 +19,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit, prange
 
-from .cn import _FM, _block_inputs, _cn_factor, _lagged_kappa, _lin, _rates, _store, _surface_pivot
+from .cn import _FM, _block_inputs, _lin, _prepare, _store, _surface_pivot
 from .simd import W, vadd, vfma, vload, vmul, vsplat, vstore, vsub
 
 _WIDE = 2 * W  # sets per chunk (two registers: two independent recursions in flight); the rest in W
@@ -145,22 +145,6 @@ def _padded_inputs(P, s0, nb, ws):
         for i in range(P.qT.shape[0]):
             ws[4][i, s] = P.qT[i, s0 + k]
         ws[5][0, s] = P.beta[s0 + k]
-
-
-@njit(cache=True, fastmath=_FM)
-def _prepare(geo, dx0, T_ref, top, nonlin, kap0, CB, beta, r, h, T, Tb0, wk, z):
-    """``cn._prepare`` on the separate work arrays ``wk = (kap, a, c, l, u, g, invD)``."""
-    kap, a, c, l, u, g, invD = wk[0], wk[1], wk[2], wk[3], wk[4], wk[5], wk[6]
-    d0, hs, hc, hh, invD0 = z[0], z[1], z[2], z[3], z[4]
-    if nonlin:
-        _lagged_kappa(kap0, beta, T_ref, T, Tb0, kap)
-        _rates(kap, CB, geo, dx0, a, c, hs)
-    else:
-        _rates(kap0, CB, geo, dx0, a, c, hs)
-    _cn_factor(a, c, r, l, u, g, invD, d0)
-    for s in range(hs.shape[0]):
-        hc[s] = r * hs[s]
-    _surface_pivot(d0, hc, h, invD0, hh, top)
 
 
 @njit(cache=True, fastmath=_FM)
