@@ -46,6 +46,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit, prange
 
+from . import adjoint_simd as _vadj
 from . import cn_simd as _vstep
 from .cn import _FM, _be_step, _block_inputs, _cn_step, _lin, _prepare, _store, _surface_pivot
 from .simd import W
@@ -209,10 +210,16 @@ def _retreat(T_air, T_bot, n_start, damp, st, k, j, ns, first_j, r, w, z, gt, la
                 XN = _lin(T_bot[j], T_bot[j + 1], w0) + _lin(T_bot[j], T_bot[j + 1], w1)
                 Ta = _lin(T_air[j], T_air[j + 1], w0) + _lin(T_air[j], T_air[j + 1], w1)
                 wq1 = w0 + w1
-            _adjoint_step(
-                lam, mu, st[k - 1], st[k], ct, cl, u, gt, invD0, invD, r, XN, Ta, (1.0 + ct) - wq1, wq1,
-                acc_a, acc_b, acc_h, acc_q, j,
-            )
+            if lam.shape[1] % W == 0:  # the same numbers on vectors
+                _vadj.adjoint_step(
+                    lam, mu, st[k - 1], st[k], ct, cl, u, gt, z, invD, r, XN, Ta, (1.0 + ct) - wq1, wq1,
+                    acc_a, acc_b, acc_h, acc_q, j,
+                )
+            else:
+                _adjoint_step(
+                    lam, mu, st[k - 1], st[k], ct, cl, u, gt, invD0, invD, r, XN, Ta, (1.0 + ct) - wq1, wq1,
+                    acc_a, acc_b, acc_h, acc_q, j,
+                )
             k -= 1
 
 
