@@ -45,7 +45,7 @@ from pavement_mcmc.samplers import get_sampler  # noqa: E402
 from pavement_mcmc.solver import forward  # noqa: E402
 from pavement_mcmc.solver.kernels import adjoint as _kadj  # noqa: E402
 from pavement_mcmc.solver.kernels import adjoint_scalar as _kadj_scalar  # noqa: E402
-from pavement_mcmc.solver.kernels import cn as _kcn  # noqa: E402
+from pavement_mcmc.solver.kernels import cn_simd as _kcn  # noqa: E402
 from pavement_mcmc.storage import MemoryStore  # noqa: E402
 
 CASE = ROOT / "runs" / "grass.toml"

@@ -154,32 +154,57 @@ def run(quick: bool = False) -> list[dict]:
 
 
 SWEEP = (8, 16, 32, 64, 128, 256)
+SWEEP_ROUNDS = 2  # timings of each kernel pair, the order alternated between rounds
+
+
+def _sweep_kernels() -> dict:
+    """``{name: cn_serial}``: the shipped kernel and the previous one (kept for this bench)."""
+    import _previous_cn
+
+    from pavement_mcmc.solver.kernels import cn_simd
+
+    return {"previous": _previous_cn.cn_serial, "new": cn_simd.cn_serial}
 
 
 def run_sweep(quick: bool = False) -> list[dict]:
-    """The serial CN kernel alone (one block, on the calling thread) for growing batches:
-    process CPU us per set and per node-step, minima over rounds timed in turn. The fit
-    ``call = fixed + per_set x sets`` (16-128 sets) separates the per-call cost (loop
-    set-up over ~670 steps) from the arithmetic a set costs."""
+    """The serial CN kernel alone (one block, on the calling thread) for growing batches, the
+    new kernel beside the previous one (``benchmarks/_previous_cn.py``) in the same process:
+    process CPU us per set and per node-step, minima over rounds timed in turn, in
+    ``SWEEP_ROUNDS`` rounds of which every other calls the new kernel first; ``ratio`` is
+    new / previous per round. The fit ``call = fixed + per_set x sets`` (16-64 sets)
+    separates the per-call cost (loop set-up over ~670 steps) from the arithmetic a set costs.
+    Both kernels take the package's one ``Problem`` class: a second named-tuple class of the same
+    name (an own copy in the previous kernel's module) made numba's dispatch of whichever was
+    called second ~130 us a call slower (the order effect noted in VALIDATION section 9)."""
     from pavement_mcmc.solver import forward as fw
-    from pavement_mcmc.solver.kernels import cn as kernels
 
     meas = load_reference()
     grid = Grid.build(meas)
     forcing = Forcing.from_measurements(meas, grid)
+    kernels = _sweep_kernels()
     fns = {}
     for n in SWEEP:
         c = _coeffs(meas, grid, n)
         P = fw._problem(grid, forcing, *fw._check(grid, forcing, c), c.T_ref, False)
         out = np.empty((grid.n_obs, grid.n_nodes, n))
-        fns[n] = lambda P=P, n=n, out=out: kernels.cn_serial(P, n, out)
-    best = _time_interleaved(fns, 0.02 if quick else 0.05, 3 if quick else 7)
+        for name, kern in kernels.items():
+            fns[name, n] = lambda P=P, n=n, out=out, k=kern: k(P, n, out)
+    rounds = []
+    for k in range(SWEEP_ROUNDS):
+        order = sorted(fns, key=lambda key: (key[1], (key[0] == "new") == (k % 2 == 1)))
+        rounds.append(_time_interleaved({key: fns[key] for key in order}, 0.02 if quick else 0.05,
+                                        3 if quick else 7))
+    best = {key: min(r[key][1] for r in rounds) for key in fns}
     node_steps = (int(grid.substeps.sum()) + grid.n_obs - 1) * (grid.n_nodes - 1)  # + damped halves
-    fit = [n for n in SWEEP if 16 <= n <= 128]  # (at 256 sets the working set leaves L1)
-    slope, fixed = (float(v) for v in np.polyfit(fit, [best[n][1] for n in fit], 1))
-    return [dict(n_sets=n, cpu_us_per_solve=1e6 * best[n][1] / n,
-                 ns_per_node_step=1e9 * best[n][1] / n / node_steps,
-                 fit_fixed_us=1e6 * fixed, fit_us_per_set=1e6 * slope) for n in SWEEP]
+    fit = [n for n in SWEEP if 16 <= n <= 64]  # (from 128 sets on the working set leaves L1)
+    rows = []
+    for name in kernels:
+        slope, fixed = (float(v) for v in np.polyfit(fit, [best[name, n] for n in fit], 1))
+        rows += [dict(kernel=name, n_sets=n, cpu_us_per_solve=1e6 * best[name, n] / n,
+                      ns_per_node_step=1e9 * best[name, n] / n / node_steps,
+                      fit_fixed_us=1e6 * fixed, fit_us_per_set=1e6 * slope,
+                      ratio=[r["new", n][1] / r["previous", n][1] for r in rounds]) for n in SWEEP]
+    return rows
 
 
 def load_deep(days: float = 3.0, path: Path = DEEP) -> Measurements:
@@ -281,6 +306,21 @@ def run_deep(quick: bool = False) -> list[dict]:
     return rows
 
 
+def format_sweep_table(rows: list[dict]) -> str:
+    """:func:`run_sweep`'s rows, previous and new side by side per batch size."""
+    by = {(r["kernel"], r["n_sets"]): r for r in rows}
+    lines = [f"{'sets':>5} {'previous us':>11} {'new us':>7} {'new ns/node-step':>16}  new/previous, rounds"]
+    for n in SWEEP:
+        p, q = by["previous", n], by["new", n]
+        cells = f"{n:5d} {p['cpu_us_per_solve']:11.2f} {q['cpu_us_per_solve']:7.2f}"
+        cells += f" {q['ns_per_node_step']:16.2f}"
+        lines.append(cells + "  " + " ".join(f"{x:.2f}" for x in q["ratio"]))
+    for name in ("previous", "new"):
+        r = by[name, SWEEP[0]]
+        lines.append(f"fit {name}: {r['fit_fixed_us']:.0f} us/call + {r['fit_us_per_set']:.2f} us/set")
+    return "\n".join(lines)
+
+
 def format_deep_table(rows: list[dict]) -> str:
     head = (f"{'grid':9} {'days':>4} {'sets':>5} {'nodes':>5} {'steps':>6} {'us/solve':>9} {'cpu us':>8} "
             f"{'max err C':>9} {'vs unif':>7} {'per day/1d':>10}")
@@ -319,10 +359,9 @@ def main(quick: bool = False) -> None:
         f"layer {numba.config.THREADING_LAYER}; load average {os.getloadavg()[0]:.1f}"
     )
     print(format_table(run(quick=quick)))
-    print("\nserial CN kernel alone, by batch size (process CPU; fit over 16-128 sets)")
-    for r in run_sweep(quick=quick):
-        print(f"{r['n_sets']:5d} sets {r['cpu_us_per_solve']:7.2f} us/solve {r['ns_per_node_step']:6.2f} "
-              f"ns/node-step   fit: {r['fit_fixed_us']:.0f} us/call + {r['fit_us_per_set']:.2f} us/set")
+    print(f"\nserial CN kernel alone, by batch size, new beside previous (process CPU, min of "
+          f"{SWEEP_ROUNDS} rounds, the order alternated; ratio new/previous per round; fit over 16-64 sets)")
+    print(format_sweep_table(run_sweep(quick=quick)))
     rows = run_deep(quick=quick)
     if not rows:
         print(f"\ndeep real record not found at {DEEP} (set PAVEMENT_DEEP_RECORD): rows skipped")

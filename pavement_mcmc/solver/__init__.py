@@ -104,9 +104,10 @@ another record the same way: compare ``solve`` on ``grid`` and ``grid.refined(4)
 Kernels are compiled with numba (``pavement_mcmc.solver.kernels.cn*``, ``cache=True``, ``fastmath`` limited
 to FMA contraction). Every kernel takes its read-only inputs as one named tuple
 (:class:`pavement_mcmc.solver.kernels.cn.Problem`). Parameter sets are the innermost, contiguous
-axis, so the loops over sets vectorise (AVX2/AVX-512). Dispatch: up to 4 sets, a scalar
-one-set-at-a-time kernel (linear CN); below 64 sets, blocks of sets on the calling thread; from
-64 sets, one block per numba thread.
+axis, so the loops over sets vectorise (AVX2/AVX-512); the forward CN kernel
+(``kernels.cn_simd``) runs them on explicit vectors of 8 sets kept in registers along the nodes.
+Dispatch: up to 4 sets, a scalar one-set-at-a-time kernel (linear CN); below 64 sets, blocks of
+sets on the calling thread; from 64 sets, one block per numba thread.
 The solver uses no BLAS; keep BLAS single-threaded (``OMP_NUM_THREADS=1``) so it does not compete
 for the cores. On a machine shared with other busy processes numba's ``workqueue`` threading
 layer (``NUMBA_THREADING_LAYER=workqueue``) degrades far more gracefully than OpenMP.

@@ -10,6 +10,7 @@ import numpy as np
 
 from .grid import Coefficients, Forcing, Grid
 from .kernels import cn as _kernels
+from .kernels import cn_simd as _kernels_simd
 from .kernels import dff as _kernels_dff
 from .kernels.scalar import cn_scalar
 
@@ -135,7 +136,7 @@ def solve(grid: Grid, forcing: Forcing, coeffs: Coefficients, scheme: str = "cn"
     if scheme == "dff":  # serial only (parity, not speed), in blocks sized as cn's
         kernel = _kernels_dff.dff_serial
     else:
-        kernel = _kernels.cn_parallel if parallel else _kernels.cn_serial
+        kernel = _kernels_simd.cn_parallel if parallel else _kernels_simd.cn_serial
     kernel(P, _block(S, parallel), out)
     return out.transpose(2, 0, 1)
 

@@ -46,7 +46,10 @@ from __future__ import annotations
 import numpy as np
 from numba import njit, prange
 
+from . import adjoint_simd as _vadj
+from . import cn_simd as _vstep
 from .cn import _FM, _be_step, _block_inputs, _cn_step, _lin, _prepare, _store, _surface_pivot
+from .simd import W
 
 
 @njit(cache=True)
@@ -143,12 +146,16 @@ def _factor(geo, dx0, top, kap0, CB, r, hj, refactor, w, z, gt):
 
 
 @njit(cache=True, fastmath=_FM)
-def _advance(T_air, T_bot, T_top, n_start, damp, st, k, j, ns, first_j, qa, qb, w, z):
+def _advance(T_air, T_bot, T_top, n_start, damp, st, k, j, ns, first_j, qB, w, z):
     """Interval ``j``'s steps from slot ``k`` of ``st`` on, each into the next slot; returns the
-    slot of the interval's end state. Same steps and arithmetic as ``_kernels._cn_block``."""
+    slot of the interval's end state. Same steps and arithmetic as ``cn_simd._cn_block``: its
+    vector steps when the block's sets fill whole vectors (``qB``: the block's q, (n_obs, nb)),
+    else the loop steps of ``_kernels`` (the same numbers)."""
     l, u, g, invD, R = w[3], w[4], w[5], w[6], w[7]
     hc, hh, invD0, qs = z[2], z[3], z[4], z[5]
+    qa, qb = qB[j], qB[j + 1]
     nb = qa.shape[0]
+    vec = nb % W == 0
     for m in range(ns):
         w0 = m / ns
         w1 = (m + 1) / ns
@@ -161,7 +168,10 @@ def _advance(T_air, T_bot, T_top, n_start, damp, st, k, j, ns, first_j, qa, qb, 
                 Tb = _lin(T_bot[j], T_bot[j + 1], wb)
                 st[k + 1, :, :] = st[k]
                 Tt = _lin(T_top[j], T_top[j + 1], wb)
-                _be_step(st[k + 1], R, l, u, g, invD0, hh, Ta, Tb, qs, invD, Tt)
+                if vec:
+                    _vstep.be_step(st[k + 1], R, l, u, g, invD, z, Ta, Tb, qB, j, wb, Tt)
+                else:
+                    _be_step(st[k + 1], R, l, u, g, invD0, hh, Ta, Tb, qs, invD, Tt)
                 k += 1
         else:
             Ta_sum = _lin(T_air[j], T_air[j + 1], w0) + _lin(T_air[j], T_air[j + 1], w1)
@@ -170,7 +180,10 @@ def _advance(T_air, T_bot, T_top, n_start, damp, st, k, j, ns, first_j, qa, qb, 
                 qs[s] = hc[s] * (_lin(qa[s], qb[s], w0) + _lin(qa[s], qb[s], w1))
             st[k + 1, :, :] = st[k]
             Tt = _lin(T_top[j], T_top[j + 1], w1)
-            _cn_step(st[k + 1], R, l, u, g, invD0, hh, Ta_sum, Tb_sum, qs, invD, Tt)
+            if vec:
+                _vstep.cn_step(st[k + 1], R, l, u, g, invD, z, Ta_sum, Tb_sum, qB, j, w0, w1, Tt)
+            else:
+                _cn_step(st[k + 1], R, l, u, g, invD0, hh, Ta_sum, Tb_sum, qs, invD, Tt)
             k += 1
     return k
 
@@ -197,10 +210,16 @@ def _retreat(T_air, T_bot, n_start, damp, st, k, j, ns, first_j, r, w, z, gt, la
                 XN = _lin(T_bot[j], T_bot[j + 1], w0) + _lin(T_bot[j], T_bot[j + 1], w1)
                 Ta = _lin(T_air[j], T_air[j + 1], w0) + _lin(T_air[j], T_air[j + 1], w1)
                 wq1 = w0 + w1
-            _adjoint_step(
-                lam, mu, st[k - 1], st[k], ct, cl, u, gt, invD0, invD, r, XN, Ta, (1.0 + ct) - wq1, wq1,
-                acc_a, acc_b, acc_h, acc_q, j,
-            )
+            if lam.shape[1] % W == 0:  # the same numbers on vectors
+                _vadj.adjoint_step(
+                    lam, mu, st[k - 1], st[k], ct, cl, u, gt, z, invD, r, XN, Ta, (1.0 + ct) - wq1, wq1,
+                    acc_a, acc_b, acc_h, acc_q, j,
+                )
+            else:
+                _adjoint_step(
+                    lam, mu, st[k - 1], st[k], ct, cl, u, gt, invD0, invD, r, XN, Ta, (1.0 + ct) - wq1, wq1,
+                    acc_a, acc_b, acc_h, acc_q, j,
+                )
             k -= 1
 
 
@@ -216,6 +235,7 @@ def _fwd_block(P, s0, nb, out, buf):
     n_slots = slot0[n_int] + 1
     st = buf[s0 * n_slots * N : (s0 + nb) * n_slots * N].reshape((n_slots, N, nb))
     kap0, CB, T, w, z, gt = _block_setup(P, s0, nb)
+    qB = np.ascontiguousarray(qT[:, s0 : s0 + nb])
     st[0, :, :] = T
     _store(out, 0, s0, st[0], T_bot[0])
     dt_fact = -1.0
@@ -224,9 +244,7 @@ def _fwd_block(P, s0, nb, out, buf):
         dt = (t_obs[j + 1] - t_obs[j]) / ns
         _factor(geo, dx0, top, kap0, CB, 0.5 * dt, hT[j, s0 : s0 + nb], dt != dt_fact, w, z, gt)
         dt_fact = dt
-        qa = qT[j, s0 : s0 + nb]
-        qb = qT[j + 1, s0 : s0 + nb]
-        k = _advance(T_air, T_bot, T_top, n_start, damp, st, slot0[j], j, ns, first[j], qa, qb, w, z)
+        k = _advance(T_air, T_bot, T_top, n_start, damp, st, slot0[j], j, ns, first[j], qB, w, z)
         _store(out, j + 1, s0, st[k], T_bot[j + 1])
 
 
@@ -255,6 +273,7 @@ def _vjp_block(P, out, G, stored, buf, s0, nb, acc):
             max_slots = max(max_slots, slot0[j + 1] - slot0[j])
         st = np.empty((max_slots + 1, N, nb))
     kap0, CB, _, w, z, gt = _block_setup(P, s0, nb)
+    qB = np.ascontiguousarray(qT[:, s0 : s0 + nb])
     lam = np.zeros((N, nb))
     mu = np.zeros((N, nb))
     a_b = np.zeros((2, N, nb))
@@ -272,9 +291,7 @@ def _vjp_block(P, out, G, stored, buf, s0, nb, acc):
             for i in range(N):
                 for s in range(nb):
                     st[0, i, s] = out[j, i, s0 + s]
-            qa = qT[j, s0 : s0 + nb]
-            qb = qT[j + 1, s0 : s0 + nb]
-            k = _advance(T_air, T_bot, T_top, n_start, damp, st, 0, j, ns, first[j], qa, qb, w, z)
+            k = _advance(T_air, T_bot, T_top, n_start, damp, st, 0, j, ns, first[j], qB, w, z)
         for i in range(N):
             for s in range(nb):
                 lam[i, s] += G[s0 + s, j + 1, i]

@@ -1,11 +1,14 @@
-"""Compiled (numba) time-stepping kernels behind :func:`pavement_mcmc.solver.solve`.
+"""Compiled (numba) time-stepping pieces behind :func:`pavement_mcmc.solver.solve`.
 
-Internal module: the public API, the discretisation and its documentation live in
-:mod:`pavement_mcmc.solver`. Every array here is laid out with the parameter sets as the LAST,
-contiguous axis (``(n_unknowns, n_sets)``), so the inner loops run over sets and the compiler
-vectorises them (AVX2/AVX-512). The outer ``prange`` runs over blocks of ``block`` sets; each
-block integrates the whole time window with its working set (~10 arrays of ``n_unknowns x
-block`` doubles) resident in L1/L2.
+Internal module. It holds the :class:`Problem`, the rates, the factorisation and the CN /
+backward-Euler steps as loops over sets; the forward CN driver (``cn_serial`` / ``cn_parallel``)
+runs the same steps on explicit vectors in :mod:`.cn_simd`, the adjoint (:mod:`.adjoint`) and Du
+Fort-Frankel (:mod:`.dff`) kernels use the loops here. The public API, the discretisation and
+its documentation live in :mod:`pavement_mcmc.solver`. Every array here is laid out with the
+parameter sets as the LAST, contiguous axis (``(n_unknowns, n_sets)``), so the inner loops run
+over sets and the compiler vectorises them (AVX2/AVX-512). The drivers' outer ``prange`` runs
+over blocks of ``block`` sets; each block integrates the whole time window with its working set
+(~10 arrays of ``n_unknowns x block`` doubles) resident in L1/L2.
 
 Every kernel reads its inputs from one :class:`Problem` (a named tuple: one place that lists
 the arguments). The block drivers unpack it once and hand the inner helpers, called per
@@ -36,7 +39,7 @@ from __future__ import annotations
 from typing import NamedTuple
 
 import numpy as np
-from numba import njit, prange
+from numba import njit
 
 _FM = {"contract"}  # allow fused multiply-add only; no reassociation (measured: same speed)
 
@@ -280,75 +283,3 @@ def _block_inputs(P, s0, nb):
         for s in range(nb):
             T[0, s] = P.T_top[0]
     return kap0, CB, T
-
-
-@njit(cache=True, fastmath=_FM)
-def _cn_block(P, s0, nb, out):
-    """Crank-Nicolson over all observation intervals for sets ``s0 .. s0+nb-1`` of the
-    :class:`Problem` ``P``; fills their columns of ``out`` (n_obs, N+1, S), degC."""
-    T_air, T_bot, T_top, t_obs, substeps = P.T_air, P.T_bot, P.T_top, P.t_obs, P.substeps
-    nonlin, top, n_start, damp = P.nonlin, P.top, P.n_start, P.damp
-    geo, dx0, T_ref, hT, qT = P.geo, P.dx0, P.T_ref, P.hT, P.qT
-    N = P.kappaT.shape[0]
-    n_int = substeps.shape[0]
-    kap0, CB, T = _block_inputs(P, s0, nb)
-    w = np.zeros((8, N, nb))
-    z = np.zeros((6, nb))
-    l, u, g, invD, R = w[3], w[4], w[5], w[6], w[7]
-    d0, hc, hh, invD0, qs = z[0], z[2], z[3], z[4], z[5]
-    bb = P.beta[s0 : s0 + nb]
-    _store(out, 0, s0, T, T_bot[0])
-    dt_fact = -1.0
-    nstep = 0
-    for j in range(n_int):
-        ns = substeps[j]
-        dt = (t_obs[j + 1] - t_obs[j]) / ns
-        r = 0.5 * dt
-        hj = hT[j, s0 : s0 + nb]
-        qa = qT[j, s0 : s0 + nb]
-        qb = qT[j + 1, s0 : s0 + nb]
-        if not nonlin:
-            if dt != dt_fact:  # refactorise only when the step length changes
-                _prepare(geo, dx0, T_ref, top, False, kap0, CB, bb, r, hj, T, 0.0, w, z)
-                dt_fact = dt
-            else:
-                _surface_pivot(d0, hc, hj, invD0, hh, top)
-        for m in range(ns):
-            w0 = m / ns
-            w1 = (m + 1) / ns
-            Ta0 = _lin(T_air[j], T_air[j + 1], w0)
-            Ta1 = _lin(T_air[j], T_air[j + 1], w1)
-            Tb0 = _lin(T_bot[j], T_bot[j + 1], w0)
-            Tb1 = _lin(T_bot[j], T_bot[j + 1], w1)
-            Tt1 = _lin(T_top[j], T_top[j + 1], w1)
-            if nonlin:
-                _prepare(geo, dx0, T_ref, top, True, kap0, CB, bb, r, hj, T, Tb0, w, z)
-            if nstep < n_start or (m == 0 and damp):
-                wh = (m + 0.5) / ns
-                _be_pair(
-                    T, w, z, _lin(T_air[j], T_air[j + 1], wh), _lin(T_bot[j], T_bot[j + 1], wh), Ta1, Tb1,
-                    qa, qb, wh, w1, _lin(T_top[j], T_top[j + 1], wh), Tt1,
-                )
-            else:
-                for s in range(nb):
-                    qs[s] = hc[s] * (_lin(qa[s], qb[s], w0) + _lin(qa[s], qb[s], w1))
-                _cn_step(T, R, l, u, g, invD0, hh, Ta0 + Ta1, Tb0 + Tb1, qs, invD, Tt1)
-            nstep += 1
-        _store(out, j + 1, s0, T, T_bot[j + 1])
-
-
-@njit(cache=True, parallel=True)
-def cn_parallel(P, block, out):
-    """:func:`_cn_block` over blocks of ``block`` sets, the blocks spread over numba's threads."""
-    S = P.kappaT.shape[1]
-    for b in prange((S + block - 1) // block):
-        s0 = b * block
-        _cn_block(P, s0, min(block, S - s0), out)
-
-
-@njit(cache=True)
-def cn_serial(P, block, out):
-    """As :func:`cn_parallel`, on the calling thread (no thread start-up cost)."""
-    S = P.kappaT.shape[1]
-    for s0 in range(0, S, block):
-        _cn_block(P, s0, min(block, S - s0), out)
