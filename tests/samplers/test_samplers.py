@@ -258,7 +258,7 @@ class ToyGMRF:
 @pytest.mark.parametrize("kind, move, opts, steps", [
     ("fast", "rw", {}, 6000), ("fast", "block", {}, 6000),
     ("fast", "block", {"block_kind": "independence"}, 6000), ("hmc", None, {}, 800),
-    ("hmc", None, {"log_positive": True}, 800)])
+    ("hmc", None, {"log_positive": True}, 800), ("hmc", None, {"rough_moves": 3}, 800)])
 def test_gamma_marginalised_sampler_matches_quadrature(kind, move, opts, steps):
     """`fast` with gamma integrated out (random walk on h, exact gamma draw), the block move
     (gamma/h joint moves + pCN) and `hmc` (Hamiltonian moves on h with gamma integrated out,
@@ -270,7 +270,8 @@ def test_gamma_marginalised_sampler_matches_quadrature(kind, move, opts, steps):
     s.prepare()
     assert s.move.name == move if kind == "fast" else s.marginal
     if kind == "hmc":
-        assert s.tlog.all() == bool(opts)
+        assert s.tlog.all() == ("log_positive" in opts)
+        assert (s.rough is not None) == ("rough_moves" in opts)
     store = _store(post, s.n_chains)
     res = run_sampler(s, store, ess_target=1e9, max_steps=steps, n_adapt=steps // 8)
     kept = store.read().chain[res.burn_in:]
@@ -290,13 +291,14 @@ def test_gamma_marginalised_sampler_matches_quadrature(kind, move, opts, steps):
 
 
 @pytest.mark.parametrize("kind, move", [("fast", "rw"), ("fast", "block"), ("hmc", None),
-                                        ("hmc", "log")])
+                                        ("hmc", "log"), ("hmc", "rough")])
 def test_gamma_marginalised_resume_is_bit_for_bit(kind, move):
     post = ToyGMRF(seed=2)
     n = 120
 
     opts = ({"move": {"kind": move, "first_window": 20}} if move == "rw" else {"move": move}) \
-        if kind == "fast" else {"metric_at": 40, "log_positive": move == "log"}
+        if kind == "fast" else {"metric_at": 40, "log_positive": move == "log",
+                                "rough_moves": 2 if move == "rough" else 0}
 
     def prep():
         s = get_sampler(kind, post, n_chains=16, seed=7, options=opts)
