@@ -9,8 +9,8 @@ In the orthonormal DCT-II basis :math:`B` (the eigenvectors of :math:`D^TD`, eig
 :math:`\lambda_k = 2 - 2\cos(\pi k/N)`, so that :math:`S = \sum_k \lambda_k c_k^2` with
 :math:`c = B^T h`), the *rough* modes :math:`R` are those above a cut, ``k >= cut N``
 (``hmc``'s option ``rough_cut``): at the posterior they are close to their GMRF prior (the data
-inform the slow part of h), and they carry most of :math:`S` (Case C: the modes above 28 of
-112 hold about 3/4 of it at gamma's posterior mean, a fifth at the smooth MAP). With :math:`P = B_R B_R^T` the proposal is
+inform the slow part of h), and they carry most of :math:`S` in the posterior (at the smooth
+MAP only a fifth of it on Case C). With :math:`P = B_R B_R^T` the proposal is
 
 .. math:: h' = h + (e^{\varepsilon} - 1) P h, \qquad \varepsilon \sim N(0, s^2),
 
