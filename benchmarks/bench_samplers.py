@@ -13,7 +13,8 @@
    (its steps cost a tuned number of gradients); one gradient (a solve and its adjoint sweep)
    is counted as :data:`GRAD_SOLVES` solves, its measured cost.
 
-``python benchmarks/bench_samplers.py [--quick]`` prints both tables.
+``python benchmarks/bench_samplers.py [--quick]`` prints both tables; ``--casec`` only Case C's
+``hmc`` with and without the rough-scale moves (issue 25), and their ratio.
 """
 
 from __future__ import annotations
@@ -107,20 +108,23 @@ def fixed_budget(case: str, kind: str, solves: int, lap) -> dict:
             "max_rhat": float(dg.split_rhat(kept).max())}
 
 
+def case_c_rough() -> list[dict]:
+    """Case C, ``hmc``'s defaults, to the stopping rule beside the same without the rough-scale
+    moves (``rough_moves = 0``, as before issue 25), and their ratio."""
+    new = to_target("caseC", 300, kind="hmc")
+    old = to_target("caseC", 300, kind="hmc", options={"rough_moves": 0}, label="caseC no rough")
+    return [new, old, {"ratio": "caseC hmc: without / with rough moves",
+                       "cpu": old["cpu_s"] / new["cpu_s"], "solves": old["solves"] / new["solves"],
+                       "steps": old["steps"] / new["steps"]}]
+
+
 def run(quick: bool = False) -> list[dict]:
     """Both benchmarks; one dict per row (see the module docstring)."""
     warnings.simplefilter("ignore")
     rows = [to_target("caseA", 60),
             to_target("caseC", 120, overrides=WIDE, label="caseC wide", kind="hmc"),
             to_target("caseC", 120, n_chains=32, overrides=WIDE, label="caseC wide")]
-    # hmc's defaults beside the same without the rough-scale moves (before issue 25)
-    new = [to_target("caseC", 300, kind="hmc")]
-    old = [to_target("caseC", 300, kind="hmc", options={"rough_moves": 0},
-                     label="caseC no rough")]
-    rows += [new[0], old[0]]
-    rows.append({"ratio": "caseC hmc: without / with rough moves",
-                 "cpu": old[0]["cpu_s"] / new[0]["cpu_s"],
-                 "solves": old[0]["solves"] / new[0]["solves"]})
+    rows += case_c_rough()
     if not quick:
         rows.append(to_target("caseC", 1200, n_chains=32))
     budget = {"caseA": 20_000 if quick else 100_000, "caseC": 50_000 if quick else 300_000}
@@ -142,7 +146,8 @@ def _print(rows: list[dict]) -> None:
                   f"{r['cpu_s']:7.1f} {r['solves']:9d} {r['min_ess']:8.0f} {r['max_rhat']:8.3f}  "
                   f"{r['reason'][:90]}")
         elif "ratio" in r:
-            print(f"{r['ratio']}: CPU x{r['cpu']:.2f}, gradients and solves x{r['solves']:.2f}")
+            print(f"{r['ratio']}: CPU x{r['cpu']:.2f}, steps x{r['steps']:.2f}, gradients and "
+                  f"solves x{r['solves']:.2f}")
     print("\nfixed budget of solves (min ESS over parameters)")
     print(f"{'case':6} {'sampler':7} {'solves':>8} {'ESS/1000 solves':>16} {'ESS/s':>8} "
           f"{'acc':>5} {'max Rhat':>8}")
@@ -153,4 +158,8 @@ def _print(rows: list[dict]) -> None:
 
 
 if __name__ == "__main__":
-    _print(run(quick="--quick" in sys.argv))
+    if "--casec" in sys.argv:
+        warnings.simplefilter("ignore")
+        _print(case_c_rough())
+    else:
+        _print(run(quick="--quick" in sys.argv))

@@ -40,7 +40,8 @@ costs 167k instead of 114k). The loop adapts until the last window's end plus 50
 
 Rough-scale moves (option ``rough_moves``, with a free gamma): after each trajectory, that many
 Metropolis moves scaling h's high-frequency part (:mod:`.rough`; one solve each, then one
-gradient for each chain that moved), which the trajectories move slowly.
+gradient for each chain that moved), which the trajectories move slowly; dropped at the end of
+adaptation if their step was tuned too small to matter (:meth:`.rough.RoughScale.useful`).
 
 Working coordinates (``log_positive``: ``log x`` for parameters bounded at 0 whose mode lies
 well above it; ``sqrt_at_zero``: a shifted ``sqrt x`` for those piled against 0), what they
@@ -372,6 +373,8 @@ class HMCSampler(Sampler):
     def _freeze(self) -> None:
         """End of adaptation: the averaged step size, frozen with the metric."""
         self.frozen = True
+        if self.rough is not None and not self.rough.useful():
+            self.rough = None  # tuned to a step too small to move S (h piled at 0: the grass)
         if self.k_da > 0:
             self.log_eps = self.log_eps_bar
         self.n_leapfrog = self._n_leapfrog(float(np.exp(self.log_eps)))
