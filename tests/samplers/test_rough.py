@@ -89,10 +89,10 @@ def test_scale_move_alone_keeps_the_marginal_prior_exact(jacobian_error):
 def test_hmc_drops_a_move_tuned_too_small_at_the_end_of_adaptation():
     """The GMRF toy: the move is on by default; a step tuned below MIN_STEP (h piled at 0, as on
     the Göttingen window) is dropped when the adaptation ends, a useful one kept."""
+    from test_samplers import ToyGMRF
+
     from pavement_mcmc.samplers import get_sampler
     from pavement_mcmc.samplers.rough import MIN_STEP
-
-    from test_samplers import ToyGMRF
 
     for step, kept in ((0.5 * MIN_STEP, False), (2.0 * MIN_STEP, True)):
         s = get_sampler("hmc", ToyGMRF(), n_chains=8, seed=3)
