@@ -114,6 +114,7 @@ def scale_moves(move: RoughScale, rng: np.random.Generator, target, theta: np.nd
     lo, hi = target.lo[hc], target.hi[hc]
     moved = np.zeros(theta.shape[0], bool)
     n_solved = 0
+    lp = target.uni_logp(theta) + target.log_prior_h(theta)  # the current log-prior
     for _ in range(n_moves):
         hp, log_jac = move.propose(rng, theta[:, hc])
         prop = theta.copy()
@@ -121,11 +122,11 @@ def scale_moves(move: RoughScale, rng: np.random.Generator, target, theta: np.nd
         inside = np.all((hp >= lo) & (hp <= hi), axis=1)
         ll, bl, uni, n = target.score(prop, inside, blobs, None)
         n_solved += n
+        lp_p = uni + target.log_prior_h(prop)
         with np.errstate(invalid="ignore"):
-            log_a = (ll + uni + target.log_prior_h(prop) + log_jac
-                     - loglik - target.uni_logp(theta) - target.log_prior_h(theta))
+            log_a = ll + lp_p + log_jac - loglik - lp
         acc = inside & (np.log(rng.uniform(size=theta.shape[0])) < log_a)
-        theta[acc], loglik[acc], blobs[acc] = prop[acc], ll[acc], bl[acc]
+        theta[acc], loglik[acc], blobs[acc], lp[acc] = prop[acc], ll[acc], bl[acc], lp_p[acc]
         moved |= acc
         if adapt:
             move.adapt(float(np.mean(np.exp(np.minimum(np.nan_to_num(log_a, nan=-np.inf), 0.0)))))
