@@ -96,7 +96,7 @@ class HMCOptions:
     log_positive: bool | str = _auto()
     sqrt_at_zero: bool | str = _auto()
     sqrt_shift: float = 0.25
-    rough_moves: int = 4
+    rough_moves: int = 0
     rough_cut: float = 0.25
 
     def __post_init__(self):

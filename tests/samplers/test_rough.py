@@ -87,15 +87,15 @@ def test_scale_move_alone_keeps_the_marginal_prior_exact(jacobian_error):
 
 
 def test_hmc_drops_a_move_tuned_too_small_at_the_end_of_adaptation():
-    """The GMRF toy: the move is on by default; a step tuned below MIN_STEP (h piled at 0, as on
-    the Göttingen window) is dropped when the adaptation ends, a useful one kept."""
+    """The GMRF toy with ``rough_moves``: a step tuned below MIN_STEP (h piled at 0, as on the
+    Göttingen window) is dropped when the adaptation ends, a useful one kept."""
     from test_samplers import ToyGMRF
 
     from pavement_mcmc.samplers import get_sampler
     from pavement_mcmc.samplers.rough import MIN_STEP
 
     for step, kept in ((0.5 * MIN_STEP, False), (2.0 * MIN_STEP, True)):
-        s = get_sampler("hmc", ToyGMRF(), n_chains=8, seed=3)
+        s = get_sampler("hmc", ToyGMRF(), n_chains=8, seed=3, options={"rough_moves": 4})
         s.prepare()
         assert s.rough is not None
         s.rough.log_step = float(np.log(step))

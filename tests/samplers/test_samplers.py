@@ -259,12 +259,12 @@ class ToyGMRF:
 @pytest.mark.parametrize("kind, move, opts, steps", [
     ("fast", "rw", {}, 6000), ("fast", "block", {}, 6000),
     ("fast", "block", {"block_kind": "independence"}, 6000), ("hmc", None, {}, 800),
-    ("hmc", None, {"log_positive": True}, 800), ("hmc", None, {"rough_moves": 0}, 800)])
+    ("hmc", None, {"log_positive": True}, 800), ("hmc", None, {"rough_moves": 4}, 800)])
 def test_gamma_marginalised_sampler_matches_quadrature(kind, move, opts, steps):
     """`fast` with gamma integrated out (random walk on h, exact gamma draw), the block move
     (gamma/h joint moves + pCN) and `hmc` (Hamiltonian moves on h with gamma integrated out,
-    exact gamma draw, the rough-scale moves of h's high-frequency part; also with h moved as
-    log h, and without the rough moves) reproduce the joint posterior's gamma and h
+    exact gamma draw; also with h moved as log h, and with the rough-scale moves of h's
+    high-frequency part) reproduce the joint posterior's gamma and h
     means and sds of a small GMRF toy within Monte Carlo error."""
     post = ToyGMRF()
     options = {"move": {"kind": move, **opts}} if kind == "fast" else opts
