@@ -101,3 +101,13 @@ def test_hmc_drops_a_move_tuned_too_small_at_the_end_of_adaptation():
         s.rough.log_step = float(np.log(step))
         s.step(1, adapt=False)
         assert (s.rough is not None) == kept
+
+
+@pytest.mark.parametrize("opts, msg", [({"rough_moves": -1}, "rough_moves must be an integer >= 0"),
+                                       ({"rough_moves": 1.5}, "rough_moves must be an integer"),
+                                       ({"rough_cut": 1.0}, r"rough_cut must lie in \(0, 1\)")])
+def test_bad_rough_options_are_refused(opts, msg):
+    from pavement_mcmc.samplers.hmc_options import HMCOptions
+
+    with pytest.raises(ValueError, match=msg):
+        HMCOptions(**opts)
