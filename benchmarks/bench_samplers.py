@@ -13,7 +13,8 @@
    (its steps cost a tuned number of gradients); one gradient (a solve and its adjoint sweep)
    is counted as :data:`GRAD_SOLVES` solves, its measured cost.
 
-``python benchmarks/bench_samplers.py [--quick]`` prints both tables.
+``python benchmarks/bench_samplers.py [--quick]`` prints both tables; ``--casec`` only Case C's
+``hmc`` with its defaults and with the rough-scale moves (issue 25), and their ratio.
 """
 
 from __future__ import annotations
@@ -62,19 +63,23 @@ def _store(problem, s):
 
 
 def to_target(case: str, max_seconds: float, n_chains: int | None = None,
-              overrides: dict | None = None, label: str | None = None, kind: str = "fast") -> dict:
-    """``kind`` until the stopping rule holds; wall time includes the MAP."""
+              overrides: dict | None = None, label: str | None = None, kind: str = "fast",
+              options: dict | None = None) -> dict:
+    """``kind`` until the stopping rule holds; wall and CPU time include the MAP; ``options``
+    are set over the case's own."""
     pr = _problem(case, overrides)
     pr.posterior(pr.space.initial()[None])  # compile / warm up outside the timing
     if kind == "hmc":
         pr.posterior.loglik_and_grad(pr.space.initial()[None])
-    t0 = time.perf_counter()
-    s = get_sampler(kind, pr.posterior, n_chains=n_chains, seed=1, options=_options(pr, kind))
+    t0, c0 = time.perf_counter(), time.process_time()
+    s = get_sampler(kind, pr.posterior, n_chains=n_chains, seed=1,
+                    options={**_options(pr, kind), **(options or {})})
     s.prepare()
     st = _store(pr, s)
     res = run_sampler(s, st, ess_target=1000, max_steps=10**7, max_seconds=max_seconds)
     wall = time.perf_counter() - t0
     return {"case": label or case, "sampler": kind, "converged": res.converged, "wall_s": wall,
+            "cpu_s": time.process_time() - c0,
             "solves": res.n_evals, "steps": res.n_steps, "min_ess": float(res.ess.min()),
             "max_rhat": float(res.rhat.max()), "acceptance": res.acceptance,
             "reason": res.reason}
@@ -103,13 +108,23 @@ def fixed_budget(case: str, kind: str, solves: int, lap) -> dict:
             "max_rhat": float(dg.split_rhat(kept).max())}
 
 
+def case_c_rough() -> list[dict]:
+    """Case C to the stopping rule with ``hmc``'s defaults beside the same with the rough-scale
+    moves (``rough_moves = 4``, issue 25), and their ratio."""
+    old = to_target("caseC", 300, kind="hmc")
+    new = to_target("caseC", 300, kind="hmc", options={"rough_moves": 4}, label="caseC rough 4")
+    return [old, new, {"ratio": "caseC hmc: defaults / with rough moves",
+                       "cpu": old["cpu_s"] / new["cpu_s"], "solves": old["solves"] / new["solves"],
+                       "steps": old["steps"] / new["steps"]}]
+
+
 def run(quick: bool = False) -> list[dict]:
     """Both benchmarks; one dict per row (see the module docstring)."""
     warnings.simplefilter("ignore")
     rows = [to_target("caseA", 60),
             to_target("caseC", 120, overrides=WIDE, label="caseC wide", kind="hmc"),
             to_target("caseC", 120, n_chains=32, overrides=WIDE, label="caseC wide")]
-    rows.append(to_target("caseC", 300, kind="hmc"))
+    rows += case_c_rough()
     if not quick:
         rows.append(to_target("caseC", 1200, n_chains=32))
     budget = {"caseA": 20_000 if quick else 100_000, "caseC": 50_000 if quick else 300_000}
@@ -123,12 +138,16 @@ def run(quick: bool = False) -> list[dict]:
 
 def _print(rows: list[dict]) -> None:
     print("time to target (wall includes MAP; hmc 'solves' = gradients)")
-    print(f"{'case':10} {'sampler':7} {'conv':5} {'wall s':>7} {'solves':>9} {'min ESS':>8} "
-          f"{'max Rhat':>8}")
+    print(f"{'case':15} {'sampler':7} {'conv':5} {'wall s':>7} {'CPU s':>7} {'solves':>9} "
+          f"{'min ESS':>8} {'max Rhat':>8}")
     for r in rows:
         if "converged" in r:
-            print(f"{r['case']:10} {r['sampler']:7} {r['converged']!s:5} {r['wall_s']:7.1f} {r['solves']:9d} "
-                  f"{r['min_ess']:8.0f} {r['max_rhat']:8.3f}  {r['reason'][:90]}")
+            print(f"{r['case']:15} {r['sampler']:7} {r['converged']!s:5} {r['wall_s']:7.1f} "
+                  f"{r['cpu_s']:7.1f} {r['solves']:9d} {r['min_ess']:8.0f} {r['max_rhat']:8.3f}  "
+                  f"{r['reason'][:90]}")
+        elif "ratio" in r:
+            print(f"{r['ratio']}: CPU x{r['cpu']:.2f}, steps x{r['steps']:.2f}, gradients and "
+                  f"solves x{r['solves']:.2f}")
     print("\nfixed budget of solves (min ESS over parameters)")
     print(f"{'case':6} {'sampler':7} {'solves':>8} {'ESS/1000 solves':>16} {'ESS/s':>8} "
           f"{'acc':>5} {'max Rhat':>8}")
@@ -139,4 +158,8 @@ def _print(rows: list[dict]) -> None:
 
 
 if __name__ == "__main__":
-    _print(run(quick="--quick" in sys.argv))
+    if "--casec" in sys.argv:
+        warnings.simplefilter("ignore")
+        _print(case_c_rough())
+    else:
+        _print(run(quick="--quick" in sys.argv))

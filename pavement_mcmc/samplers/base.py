@@ -34,7 +34,8 @@ class Block:
     blobs : (n_steps, n_chains, n_sensors) RMSE per sensor, degC.
     accepted : (n_steps, n_chains) bool, was the (solver-evaluated) proposal accepted.
     n_evals : number of parameter sets the posterior evaluated (solves) for this block; for
-        ``hmc`` the gradient evaluations (each a solve and an adjoint sweep).
+        ``hmc`` the gradient evaluations (each a solve and an adjoint sweep), plus the solves
+        of its rough-scale moves (option ``rough_moves``).
     """
 
     chain: np.ndarray

@@ -36,10 +36,12 @@ averaging starts again for the new metric; ``metric_windows = 3`` adds one at ``
 (the Göttingen 72-h window's ``runs/grass.toml`` uses it: 196k instead of 229k gradients for
 the base fit, 447-512k instead of 643-698k with ``surface_layer``, single seeds; on Case C it
 costs 167k instead of 114k). The loop adapts until the last window's end plus 50 steps
-(:meth:`HMCSampler.adapt_length`: 150 steps for two windows, 250 for three). Two windows
-against the former single one at step 75 (gradient evaluations, which do not depend on the
-machine's load; 16 chains, 400 steps after adaptation): Case C 30k instead of 35k evaluations
-to adapt and 60 instead of 70 per unit of the smallest ESS.
+(:meth:`HMCSampler.adapt_length`: 150 steps for two windows, 250 for three).
+
+Rough-scale moves (option ``rough_moves``, with a free gamma): after each trajectory, that many
+Metropolis moves scaling h's high-frequency part (:mod:`.rough`; one solve each, then one
+gradient for each chain that moved), which the trajectories move slowly; dropped at the end of
+adaptation if their step was tuned too small to matter (:meth:`.rough.RoughScale.useful`).
 
 Working coordinates (``log_positive``: ``log x`` for parameters bounded at 0 whose mode lies
 well above it; ``sqrt_at_zero``: a shifted ``sqrt x`` for those piled against 0), what they
@@ -61,6 +63,7 @@ from .base import Block, Sampler, start_points
 from .coords import LOG, SQRT, Coords, log_metric
 from .hmc_options import AUTO, LEGACY, HMCOptions, resolve, restored
 from .reflect import reflect_drift
+from .rough import RoughScale, scale_moves
 from .target import MarginalTarget, bounded_laplace_cov, cholesky_of, draws_around
 
 #: dual-averaging constants (Hoffman & Gelman 2014, section 3.2)
@@ -82,6 +85,8 @@ class HMCSampler(Sampler):
     Options = HMCOptions
     #: the ``"auto"`` options as :func:`.hmc_options.resolve` decided them, and why
     chosen: dict = {}
+    #: the scale move of h's rough part (:mod:`.rough`; option ``rough_moves``), or None
+    rough = None
 
     @staticmethod
     def default_chains(ndim: int) -> int:
@@ -110,6 +115,8 @@ class HMCSampler(Sampler):
             self._set_hpos()
             mode = tg.mmap.theta
             cov = self._bounded(mode, np.array(tg.mmap.cov))
+            if self.options.rough_moves:
+                self.rough = RoughScale.above(self.hcols.size, self.options.rough_cut)
         else:
             lap = laplace
             if lap is None:
@@ -298,14 +305,27 @@ class HMCSampler(Sampler):
             self.g = np.where(acc[:, None], g, self.g)
             self.loglik = np.where(acc, ll, self.loglik)
             self.blobs = np.where(acc[:, None], bl, self.blobs)
+            n_evals = m * self.n_leapfrog
+            if self.rough is not None:
+                n_evals += self._rough_moves(adapt)
             if self.marginal:
                 self.theta[:, self.gi] = self.target.draw_gamma(self.rng, self.theta)
             self.logp = self._joint_logp(self.theta)
             if adapt:
                 self._adapt(float(np.mean(np.exp(np.minimum(log_a, 0.0)))))
-            rows.append((self.theta.copy(), self.logp.copy(), self.blobs.copy(), acc,
-                         m * self.n_leapfrog))
+            rows.append((self.theta.copy(), self.logp.copy(), self.blobs.copy(), acc, n_evals))
         return Block.stack(rows)
+
+    def _rough_moves(self, adapt: bool) -> int:
+        """The scale moves of h's rough part (:func:`.rough.scale_moves`), then the gradient
+        of the chains that moved; returns the solves and gradients spent."""
+        th, _, _, moved, n = scale_moves(self.rough, self.rng, self.target, self.theta,
+                                         self.loglik, self.blobs, self.options.rough_moves, adapt)
+        if moved.any():
+            self.theta[moved] = th[moved]
+            f, g, ll, bl = self._value_grad_w(self.coords.to_w(th[moved][:, self.idx]))
+            self.f[moved], self.g[moved], self.loglik[moved], self.blobs[moved] = f, g, ll, bl
+        return n + int(moved.sum())
 
     # -- adaptation --------------------------------------------------------------------------
     def _adapt(self, accept_prob: float) -> None:
@@ -353,6 +373,8 @@ class HMCSampler(Sampler):
     def _freeze(self) -> None:
         """End of adaptation: the averaged step size, frozen with the metric."""
         self.frozen = True
+        if self.rough is not None and not self.rough.useful():
+            self.rough = None  # tuned to a step too small to move S (h piled at 0: the grass)
         if self.k_da > 0:
             self.log_eps = self.log_eps_bar
         self.n_leapfrog = self._n_leapfrog(float(np.exp(self.log_eps)))
@@ -363,7 +385,10 @@ class HMCSampler(Sampler):
         extra.update(marginal=self.marginal, gi=self.gi)
         if any(self.chosen.get(k, v) != v for k, v in LEGACY.items()):  # else: as before the rule
             extra["chosen"] = self.chosen
-        return extra, {k: np.asarray(getattr(self, k), float) for k in _ARRAYS}
+        arrays = {k: np.asarray(getattr(self, k), float) for k in _ARRAYS}
+        if self.rough is not None:
+            extra["rough"], arrays["rough_modes"] = self.rough.state()
+        return extra, arrays
 
     def _load_extra_state(self, extra, arrays):
         self.marginal = bool(extra["marginal"])
@@ -389,3 +414,5 @@ class HMCSampler(Sampler):
         self._set_coords()
         if self.marginal:
             self.target = MarginalTarget.restored(self.posterior, self.idx, self.hcols, self.gi)
+        if "rough_modes" in arrays:
+            self.rough = RoughScale.restored(extra["rough"], arrays["rough_modes"])

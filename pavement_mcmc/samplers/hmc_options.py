@@ -79,6 +79,10 @@ class HMCOptions:
         below by 0 whose mode lies within one Laplace sd of 0 (night-time h against their
         bound). ``"auto"`` (default): as ``log_positive``.
     sqrt_shift : that ``c`` in units of the parameter's exponential scale at the bound (0: ``sqrt x``).
+    rough_moves : with a free smoothness precision (Case C), scale moves of h's rough part after
+        each trajectory (:mod:`.rough`; one solve each, and one gradient for a chain that moved);
+        0: none.
+    rough_cut : the rough part: the DCT modes ``k >= rough_cut N`` of the N values of h.
     """
 
     target_acceptance: float = 0.8
@@ -92,10 +96,16 @@ class HMCOptions:
     log_positive: bool | str = _auto()
     sqrt_at_zero: bool | str = _auto()
     sqrt_shift: float = 0.25
+    rough_moves: int = 0
+    rough_cut: float = 0.25
 
     def __post_init__(self):
         if not self.sqrt_shift >= 0.0:
             raise ValueError(f"hmc option sqrt_shift must be >= 0, got {self.sqrt_shift}")
+        if not (isinstance(self.rough_moves, int) and self.rough_moves >= 0):
+            raise ValueError(f"hmc option rough_moves must be an integer >= 0, got {self.rough_moves!r}")
+        if not 0.0 < self.rough_cut < 1.0:
+            raise ValueError(f"hmc option rough_cut must lie in (0, 1), got {self.rough_cut}")
 
     def auto_names(self) -> list[str]:
         """The options still ``"auto"``."""

@@ -11,6 +11,7 @@ from scipy import integrate, stats
 from pavement_mcmc.parameters import Flat, GMRFSmoothness, Parameter, ParameterSpace, Rayleigh
 from pavement_mcmc.runs import run_sampler
 from pavement_mcmc.samplers import SAMPLERS, get_sampler, sampler_names
+from pavement_mcmc.samplers.hmc_options import HMCOptions
 from pavement_mcmc.storage import MemoryStore
 
 
@@ -258,11 +259,12 @@ class ToyGMRF:
 @pytest.mark.parametrize("kind, move, opts, steps", [
     ("fast", "rw", {}, 6000), ("fast", "block", {}, 6000),
     ("fast", "block", {"block_kind": "independence"}, 6000), ("hmc", None, {}, 800),
-    ("hmc", None, {"log_positive": True}, 800)])
+    ("hmc", None, {"log_positive": True}, 800), ("hmc", None, {"rough_moves": 4}, 800)])
 def test_gamma_marginalised_sampler_matches_quadrature(kind, move, opts, steps):
     """`fast` with gamma integrated out (random walk on h, exact gamma draw), the block move
     (gamma/h joint moves + pCN) and `hmc` (Hamiltonian moves on h with gamma integrated out,
-    exact gamma draw; also with h moved as log h) reproduce the joint posterior's gamma and h
+    exact gamma draw; also with h moved as log h, and with the rough-scale moves of h's
+    high-frequency part) reproduce the joint posterior's gamma and h
     means and sds of a small GMRF toy within Monte Carlo error."""
     post = ToyGMRF()
     options = {"move": {"kind": move, **opts}} if kind == "fast" else opts
@@ -270,7 +272,8 @@ def test_gamma_marginalised_sampler_matches_quadrature(kind, move, opts, steps):
     s.prepare()
     assert s.move.name == move if kind == "fast" else s.marginal
     if kind == "hmc":
-        assert s.tlog.all() == bool(opts)
+        assert s.tlog.all() == ("log_positive" in opts)
+        assert (s.rough is not None) == (opts.get("rough_moves", HMCOptions().rough_moves) > 0)
     store = _store(post, s.n_chains)
     res = run_sampler(s, store, ess_target=1e9, max_steps=steps, n_adapt=steps // 8)
     kept = store.read().chain[res.burn_in:]
@@ -290,13 +293,14 @@ def test_gamma_marginalised_sampler_matches_quadrature(kind, move, opts, steps):
 
 
 @pytest.mark.parametrize("kind, move", [("fast", "rw"), ("fast", "block"), ("hmc", None),
-                                        ("hmc", "log")])
+                                        ("hmc", "log"), ("hmc", "rough")])
 def test_gamma_marginalised_resume_is_bit_for_bit(kind, move):
     post = ToyGMRF(seed=2)
     n = 120
 
     opts = ({"move": {"kind": move, "first_window": 20}} if move == "rw" else {"move": move}) \
-        if kind == "fast" else {"metric_at": 40, "log_positive": move == "log"}
+        if kind == "fast" else {"metric_at": 40, "log_positive": move == "log",
+                                "rough_moves": 2 if move == "rough" else 0}
 
     def prep():
         s = get_sampler(kind, post, n_chains=16, seed=7, options=opts)
