@@ -70,9 +70,22 @@ def to_target(case: str, extensions: tuple = (), max_seconds: float = 900.0) -> 
             "cpu_s": time.process_time() - c0, "prep_s": t_prep,
             "ms_per_gradient": 1e3 * (wall - t_prep) / max(res.n_evals - s.n_prep_evals, 1),
             "steps": res.n_steps, "gradients": res.n_evals, "prep_evals": s.n_prep_evals,
-            "min_ess": float(res.ess.min()), "max_rhat": float(res.rhat.max()),
+            # no check yet (a budget ran out first): no ESS, no R-hat
+            "min_ess": float(res.ess.min()) if res.ess.size else float("nan"),
+            "max_rhat": float(res.rhat.max()) if res.rhat.size else float("nan"),
             "grid": _grid(pb),
             "chosen": ", ".join(f"{k}={v}" for k, v in chosen.items()) or "by hand"}
+
+
+def _shown(case: str, extensions: tuple) -> dict:
+    """:func:`to_target`, its row printed as soon as it is measured (a long run that is cut
+    short keeps what it measured)."""
+    r = to_target(case, extensions)
+    print(f"{r['case']} {r['fit']}: converged={r['converged']} wall {r['wall_s']:.1f} s, cpu "
+          f"{r['cpu_s']:.1f} s, prep {r['prep_s']:.1f} s, {r['steps']} steps, {r['gradients']} "
+          f"gradients, {r['ms_per_gradient']:.2f} ms/gradient, load {os.getloadavg()[0]:.1f}",
+          flush=True)
+    return r
 
 
 def _grid(pb) -> str:
@@ -107,12 +120,12 @@ def run(quick: bool = False, only: tuple = ()) -> list[dict]:
             print(f"skipped {plain}: the shared record is not at ../shared/data/{folder}")
             continue
         for exts, target in [((), base_s)] + ([] if quick else [((ext,), added_s)]):
-            pair = [to_target(plain, exts), to_target(hand, exts)]
+            pair = [_shown(plain, exts), _shown(hand, exts)]
             rows += pair
             ratios.append(_vs(*pair, target))
     name, ext, target = TUTORIAL
     for exts in ([()] + ([] if quick else [(ext,)])) * (not only or name in only):
-        r = to_target(name, exts)
+        r = _shown(name, exts)
         rows.append(r)
         ratios.append(_met(r, target))
     print(f"\nto the stopping rule (load average {os.getloadavg()[0]:.1f} at end)")
