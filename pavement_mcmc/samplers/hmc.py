@@ -36,9 +36,7 @@ averaging starts again for the new metric; ``metric_windows = 3`` adds one at ``
 (the Göttingen 72-h window's ``runs/grass.toml`` uses it: 196k instead of 229k gradients for
 the base fit, 447-512k instead of 643-698k with ``surface_layer``, single seeds; on Case C it
 costs 167k instead of 114k). The loop adapts until the last window's end plus 50 steps
-(:meth:`HMCSampler.adapt_length`: 150 steps for two windows, 250 for three). While adapting, a
-trajectory has at most ``adapt_leapfrog`` steps (twice those of the initial step size: the
-step size is small while the metric is the Laplace one, :mod:`.hmc_options`). Two windows
+(:meth:`HMCSampler.adapt_length`: 150 steps for two windows, 250 for three). Two windows
 against the former single one at step 75 (gradient evaluations, which do not depend on the
 machine's load; 16 chains, 400 steps after adaptation): Case C 30k instead of 35k evaluations
 to adapt and 60 instead of 70 per unit of the smallest ESS.
@@ -204,11 +202,8 @@ class HMCSampler(Sampler):
         self.M = self.L @ self.L.T  # the metric's columns, for the reflections
 
     def _n_leapfrog(self, eps: float) -> int:
-        """``ceil(trajectory_length / eps)``, capped by ``max_leapfrog`` and, while adapting,
-        by ``adapt_leapfrog``."""
-        o = self.options
-        cap = o.max_leapfrog if self.frozen else min(o.max_leapfrog, o.adapt_leapfrog)
-        return int(np.clip(np.ceil(o.trajectory_length / eps), 1, cap))
+        traj = self.options.trajectory_length
+        return int(np.clip(np.ceil(traj / eps), 1, self.options.max_leapfrog))
 
     # -- the target --------------------------------------------------------------------------
     def _full(self, X: np.ndarray) -> np.ndarray:

@@ -28,23 +28,12 @@ MAP and its Laplace covariance, from three numbers of the problem:
   added: the Göttingen window (147 parameters) needed 196k instead of 229k gradients with it,
   Case C (114) 167k instead of 114k.
 
-- **leapfrog steps while adapting**: a trajectory during the adaptation has at most
-  ``adapt_leapfrog`` steps, :data:`ADAPT_LEAPFROG` times the ``ceil(trajectory_length / eps0)``
-  of the initial step size ``eps0 = 0.5 d^-1/4`` (18 for the desert window's 74 parameters, 20
-  for Case C's 114, 21 for the Göttingen window's 147, 15 for the tutorial's 30). While the
-  metric is still the Laplace one the step size is 2-4x below its final value and the
-  trajectories ran to the 64-step cap (the desert window: 30-64 steps in the first window,
-  13 after the adaptation; the first window cost half the adaptation's gradients); the
-  adaptation's draws only estimate the metric, so shorter trajectories there cost the kept
-  chain nothing. After the adaptation only ``max_leapfrog`` binds.
-
 The choice and its reason are kept (:attr:`HMCSampler.chosen`), stored in the run state (a
 resumed run keeps it) and in ``result.json``; ``fit`` prints it.
 """
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, field, replace
 
 AUTO = "auto"
@@ -58,12 +47,8 @@ PILED_MIN = 3
 SKEWED_MEDIAN, SKEWED_MIN = 6.0, 10
 #: metric windows: pooled draws per parameter below which a third window is added
 DRAWS_PER_DIM = 6
-#: leapfrog steps while adapting: at most this many times those of the initial step size
-ADAPT_LEAPFROG = 2.0
-#: the values an ``"auto"`` option took before the rule existed (a resumed old run keeps them;
-#: ``adapt_leapfrog``: no cap but ``max_leapfrog``)
-LEGACY = {"log_positive": False, "sqrt_at_zero": False, "metric_windows": 2,
-          "adapt_leapfrog": 10**9}
+#: the values an ``"auto"`` option took before the rule existed (a resumed old run keeps them)
+LEGACY = {"log_positive": False, "sqrt_at_zero": False, "metric_windows": 2}
 
 
 def _auto():
@@ -78,9 +63,6 @@ class HMCOptions:
     trajectory_length : in whitened units (~pi/2 is a half period of a Gaussian with exactly
         the metric's covariance).
     max_leapfrog : most leapfrog steps per trajectory.
-    adapt_leapfrog : most leapfrog steps per trajectory during the adaptation (and at most
-        ``max_leapfrog``). ``"auto"`` (default): twice those of the initial step size
-        (:func:`resolve`).
     step_size : initial ``eps`` (default ``0.5 d^-1/4``).
     adapt_metric : re-estimate the metric from the pooled adaptation draws.
     metric_at : the adaptation step at which it is first re-estimated.
@@ -102,7 +84,6 @@ class HMCOptions:
     target_acceptance: float = 0.8
     trajectory_length: float = 1.5
     max_leapfrog: int = 64
-    adapt_leapfrog: int | str = _auto()
     step_size: float | None = None
     adapt_metric: bool = True
     metric_at: int = 50
@@ -146,11 +127,8 @@ def resolve(options: HMCOptions, *, n_params: int, n_chains: int, n_at0: int,
     skewed = n_at0 >= SKEWED_MIN and z_median < SKEWED_MEDIAN
     draws = n_chains * options.metric_at
     few = draws < DRAWS_PER_DIM * n_params
-    eps0 = options.step_size or 0.5 * n_params**-0.25  # hmc's initial step size
-    n0 = math.ceil(options.trajectory_length / eps0)
     rule = {"log_positive": piled or skewed, "sqrt_at_zero": piled or skewed,
-            "metric_windows": 3 if few else 2,
-            "adapt_leapfrog": math.ceil(ADAPT_LEAPFROG * options.trajectory_length / eps0)}
+            "metric_windows": 3 if few else 2}
     chosen = {k: rule[k] for k in auto}
     why = []
     if {"log_positive", "sqrt_at_zero"} & set(auto):
@@ -166,9 +144,6 @@ def resolve(options: HMCOptions, *, n_params: int, n_chains: int, n_at0: int,
         why.append(f"{n_chains} chains x {options.metric_at} steps = {draws / n_params:.0f} "
                    f"draws per parameter in a metric window: {chosen['metric_windows']} windows "
                    f"(3 below {DRAWS_PER_DIM})")
-    if "adapt_leapfrog" in auto:
-        why.append(f"while adapting at most {chosen['adapt_leapfrog']} leapfrog steps "
-                   f"({ADAPT_LEAPFROG:g}x the {n0} of the initial step size {eps0:.3g})")
     return replace(options, **chosen), {**chosen, "why": "; ".join(why)}
 
 

@@ -87,31 +87,8 @@ def test_options_set_by_hand_override_the_rule():
     auto) goes on; ``metric_windows`` set by hand is kept and not reported as chosen."""
     s = _prepared(_bounded([-1.0] * 4 + [4.0] * 4), sqrt_at_zero=False, metric_windows=1)
     assert list(s.tlog) == [0] * 4 + [LOG] * 4
-    assert set(s.chosen) == {"log_positive", "adapt_leapfrog", "why"}
+    assert set(s.chosen) == {"log_positive", "why"}
     assert s.options.metric_windows == 1
-
-
-@pytest.mark.parametrize("n_params, cap", [(74, 18), (114, 20), (147, 21), (30, 15)])
-def test_adaptation_trajectories_capped_at_twice_the_initial_step_sizes(n_params, cap):
-    """While adapting at most twice the leapfrog steps of the initial step size 0.5 d^-1/4
-    (trajectory 1.5): the desert window's 74 parameters 18, Case C's 114 20."""
-    opts, chosen = resolve(HMCOptions(), n_params=n_params, n_chains=16, n_at0=0, n_near=0)
-    assert opts.adapt_leapfrog == chosen["adapt_leapfrog"] == cap
-    assert f"at most {cap} leapfrog steps" in chosen["why"]
-
-
-def test_the_adaptation_cap_binds_while_adapting_only():
-    """A step size 20x below the trajectory's: 5 leapfrog steps per trajectory while adapting
-    (the cap set by hand), 30 once the adaptation is frozen; the gradients counted agree."""
-    post = _bounded([3.0, 4.0, 5.0])
-    s = _prepared(post, n_chains=4, step_size=0.05, adapt_leapfrog=5, adapt_metric=False,
-                  target_acceptance=0.999)
-    assert s.n_leapfrog == 5
-    b = s.step(3, adapt=True)
-    assert s.n_leapfrog <= 5 and b.n_evals <= 3 * 4 * 5
-    s.log_eps_bar = np.log(0.05)  # the step size the adaptation settled on
-    b = s.step(1, adapt=False)
-    assert s.n_leapfrog == 30 and b.n_evals == 4 * 30
 
 
 @pytest.mark.parametrize("n_params, n_chains, windows", [(114, 16, 2), (147, 16, 3), (40, 4, 3),
@@ -144,7 +121,7 @@ def test_hidden_toml_fit_records_the_choice_and_respects_hand_options(tmp_path):
     out = fit(HIDDEN, tmp_path / "h", overrides=ov, seed=1)
     rec = json.loads((tmp_path / "h" / "result.json").read_text())
     assert out.problem.cfg.sampler["kind"] == "hmc"
-    assert set(rec["sampler_chosen"]) == {"sqrt_at_zero", "metric_windows", "adapt_leapfrog", "why"}
+    assert set(rec["sampler_chosen"]) == {"sqrt_at_zero", "metric_windows", "why"}
     assert rec["sampler_chosen"]["metric_windows"] == 2
     assert out.chosen == rec["sampler_chosen"]
 
