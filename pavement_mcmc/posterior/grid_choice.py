@@ -11,9 +11,11 @@ the largest difference, over every observed sensor and time, between its predict
 of the same grid refined twice in space and time (:meth:`~pavement_mcmc.solver.Grid.refined`),
 at the parameters' values of the case (the prior's centre: kappa, C, a constant h, and the
 extensions' own values). On the 72-h windows of the Göttingen grass record (30-min data) and
-the SoilVUE desert record (hourly) at sigma = 0.1 degC: 1.25x the defaults, 40 nodes and 6 / 12
-steps per interval (errors 0.082 / 0.086 sigma; 1.5x: 0.103 / 0.100 sigma; the defaults 0.070
-/ 0.067 sigma), 22 % fewer node-steps per solve. A record with a smaller sigma gets a finer
+the SoilVUE desert record (hourly) at sigma = 0.1 degC: grass 1.25x the defaults, 40 nodes x 6
+steps per interval (0.082 sigma; 1.5x: 0.103), desert 1.5x, 37 nodes x 10 steps (0.100 sigma;
+2x: 0.131), against 0.070 / 0.067 sigma for the defaults (44 nodes x 7 / 14 steps): 22 % / 40 %
+fewer node-steps per solve. The error falls only about linearly with the grid there, so
+little more is to be had (docs/VALIDATION.md). A record with a smaller sigma gets a finer
 grid. Setting any of ``kind``, ``dx_top``, ``growth``, ``dx_max``, ``dt`` by hand turns the
 choice off.
 """
