@@ -10,7 +10,9 @@ process, as ratios.
 2. The README tutorial's fits, ``runs/hidden.toml`` base and ``--add two_layer`` (target 60 s
    each).
 
-Wall time is the fit's as ``pavement-mcmc fit`` spends it (the MAP, the sampler's preparation
+``prep_s`` is the MAP and the sampler's preparation; ``ms_per_gradient`` the sampling's wall
+time per gradient after it (one chain's solve and adjoint sweep, in batches of 16). Wall time
+is the fit's as ``pavement-mcmc fit`` spends it (the MAP, the sampler's preparation
 and the sampling; not the build of the problem and the kernels' compilation), beside the
 process's CPU time over the same span (the fits' solves run on one thread, or on two for long
 windows, so on a quiet machine the wall time is at most the CPU time; on a busy one the CPU
@@ -62,13 +64,34 @@ def to_target(case: str, extensions: tuple = (), max_seconds: float = 900.0) -> 
     res = run_sampler(s, store, ess_target=scfg.get("ess_target", 1000), max_steps=10**7,
                       max_seconds=max_seconds)
     chosen = {k: v for k, v in getattr(s, "chosen", {}).items() if k != "why"}
+    wall = time.perf_counter() - t0
     return {"case": case, "fit": "+".join(("base",) + tuple(extensions)),
-            "converged": res.converged, "wall_s": time.perf_counter() - t0,
+            "converged": res.converged, "wall_s": wall,
             "cpu_s": time.process_time() - c0, "prep_s": t_prep,
+            "ms_per_gradient": 1e3 * (wall - t_prep) / max(res.n_evals - s.n_prep_evals, 1),
             "steps": res.n_steps, "gradients": res.n_evals, "prep_evals": s.n_prep_evals,
-            "min_ess": float(res.ess.min()), "max_rhat": float(res.rhat.max()),
-            "grid": (pb.grid_chosen or {}).get("kind", "by hand"),
+            # no check yet (a budget ran out first): no ESS, no R-hat
+            "min_ess": float(res.ess.min()) if res.ess.size else float("nan"),
+            "max_rhat": float(res.rhat.max()) if res.rhat.size else float("nan"),
+            "grid": _grid(pb),
             "chosen": ", ".join(f"{k}={v}" for k, v in chosen.items()) or "by hand"}
+
+
+def _shown(case: str, extensions: tuple) -> dict:
+    """:func:`to_target`, its row printed as soon as it is measured (a long run that is cut
+    short keeps what it measured)."""
+    r = to_target(case, extensions)
+    print(f"{r['case']} {r['fit']}: converged={r['converged']} wall {r['wall_s']:.1f} s, cpu "
+          f"{r['cpu_s']:.1f} s, prep {r['prep_s']:.1f} s, {r['steps']} steps, {r['gradients']} "
+          f"gradients, {r['ms_per_gradient']:.2f} ms/gradient, load {os.getloadavg()[0]:.1f}",
+          flush=True)
+    return r
+
+
+def _grid(pb) -> str:
+    """The grid chosen from the case as ``kind nodes x steps per interval``, or "by hand"."""
+    g = pb.grid_chosen
+    return f"{g['kind']} {g['nodes']}x{g['steps_per_interval']}" if g else "by hand"
 
 
 def _met(r: dict, target: float) -> dict:
@@ -97,12 +120,12 @@ def run(quick: bool = False, only: tuple = ()) -> list[dict]:
             print(f"skipped {plain}: the shared record is not at ../shared/data/{folder}")
             continue
         for exts, target in [((), base_s)] + ([] if quick else [((ext,), added_s)]):
-            pair = [to_target(plain, exts), to_target(hand, exts)]
+            pair = [_shown(plain, exts), _shown(hand, exts)]
             rows += pair
             ratios.append(_vs(*pair, target))
     name, ext, target = TUTORIAL
     for exts in ([()] + ([] if quick else [(ext,)])) * (not only or name in only):
-        r = to_target(name, exts)
+        r = _shown(name, exts)
         rows.append(r)
         ratios.append(_met(r, target))
     print(f"\nto the stopping rule (load average {os.getloadavg()[0]:.1f} at end)")

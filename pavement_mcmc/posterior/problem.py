@@ -11,6 +11,7 @@ from ..parameters import ParameterSpace
 from ..physics import HBasis, Model
 from ..physics.materials import material
 from ..solver import Grid
+from .grid_choice import build_grid
 from .input_noise import InputNoise, input_jacobian
 from .logpost import LogPosterior, default_flux_sd, default_streams
 from .map import find_map
@@ -32,7 +33,7 @@ class Problem:
     space: ParameterSpace
     posterior: LogPosterior
     input_ref: dict | None = None
-    #: what ``[grid] kind = "auto"`` chose (:func:`grid_chosen`); {} if set by hand
+    #: what ``[grid] kind = "auto"`` chose (:func:`.grid_choice.build_grid`); {} if set by hand
     grid_chosen: dict | None = None
 
     @property
@@ -57,7 +58,7 @@ def build_problem(cfg, extensions=None, h_spec: dict | None = None, *,
         model scored against a base model shares the base's data covariance).
     """
     try:
-        model, space, posterior = _assemble(cfg, extensions, h_spec)
+        model, space, posterior, grid_chosen = _assemble(cfg, extensions, h_spec)
     except UserError:
         raise
     except ValueError as err:  # a name or value of the case's config: say which file
@@ -70,24 +71,34 @@ def build_problem(cfg, extensions=None, h_spec: dict | None = None, *,
         else:
             theta = None if input_noise is None else _theta_at(space, input_noise)
             ref = attach_input_noise(posterior, sigmas, theta)
-    return Problem(cfg, model, space, posterior, ref, grid_chosen(model.meas, cfg.grid, model.grid))
+    return Problem(cfg, model, space, posterior, ref, grid_chosen)
 
 
 def _assemble(cfg, extensions, h_spec):
-    """Model, parameter space and posterior of a case (a ValueError for a bad config value)."""
+    """Model, parameter space, posterior and the grid's choice of a case (a ValueError for a bad
+    config value)."""
     model_cfg = cfg.model
     meas = cfg.measurements
     if model_cfg.get("top", "surface") == "measured":
         meas = meas.with_measured_top()
     grid_cfg = cfg.grid
-    grid = build_grid(meas, grid_cfg)
     basis = HBasis.from_config(meas.t, h_spec or model_cfg.get("h", {"kind": "per_interval"}))
     exts = model_cfg.get("extensions", []) if extensions is None else extensions
     gamma_prior = cfg.parameters.get("gamma", {}).get("prior", {})
     gamma0 = float(gamma_prior.get("scale", 2.22))
     data = cfg.data
-    model = Model(meas, grid, basis, exts, scheme=grid_cfg.get("scheme", "cn"), gamma0=gamma0,
-                  plates=data.get("plates", True))
+
+    def model_on(grid: Grid) -> Model:
+        return Model(meas, grid, basis, exts, scheme=grid_cfg.get("scheme", "cn"), gamma0=gamma0,
+                     plates=data.get("plates", True))
+
+    def predict(grid: Grid) -> np.ndarray:  # at the parameters' values, for the grid's choice
+        m = model_on(grid)
+        space = m.parameter_space().configure(_known(cfg.parameters, m))
+        return m.predict(space.expand(space.initial()[None]))[0]
+
+    grid, chosen = build_grid(meas, grid_cfg, predict)
+    model = model_on(grid)
     flux_sd = None
     if model.plates:
         flux_sd = default_flux_sd(meas.G_obs[1:], data.get("plate_sigma", 2.0),
@@ -99,52 +110,7 @@ def _assemble(cfg, extensions, h_spec):
     space = space.configure(_known(cfg.parameters, model))
     posterior = LogPosterior(model, space, streams=streams)
     material(model_cfg.get("material"))  # a ValueError listing the materials if unknown
-    return model, space, posterior
-
-
-#: the deepest bottom boundary that ``[grid] kind = "auto"`` meets with a uniform grid, m
-AUTO_UNIFORM_MAX = 0.10
-
-
-def build_grid(meas, grid_cfg: dict) -> Grid:
-    """The solver grid of a ``[grid]`` section: uniform (``dx``, ``dt``; 5 mm, 180 s by
-    default), stretched (``dx_top``, ``growth``, ``dx_max``, ``dt``; the measured defaults of
-    :meth:`~pavement_mcmc.solver.Grid.stretched`, nodes at every sensor and plate), or
-    ``"auto"``: uniform when ``dx`` is given or the bottom boundary is no deeper than
-    :data:`AUTO_UNIFORM_MAX`, stretched otherwise (a uniform 5 mm grid over 50 cm is 100
-    cells)."""
-    kind = grid_kind(meas, grid_cfg)[0]
-    if kind == "uniform":
-        return Grid.build(meas, **{k: grid_cfg[k] for k in ("dx", "dt") if grid_cfg.get(k) is not None})
-    keys = ("dx_top", "growth", "dx_max", "dt")
-    return Grid.build_stretched(meas, **{k: grid_cfg[k] for k in keys if grid_cfg.get(k) is not None})
-
-
-def grid_kind(meas, grid_cfg: dict) -> tuple[str, str]:
-    """The grid kind ``[grid]`` asks for (``"auto"`` decided from the case) and why: an empty
-    reason when the kind was set by hand (``kind = "uniform"``/``"stretched"``)."""
-    kind = grid_cfg.get("kind", "auto")
-    if kind != "auto":
-        return kind, ""
-    depth = f"the bottom boundary at {100 * meas.bottom_depth:g} cm"
-    if grid_cfg.get("dx") is not None:
-        return "uniform", "[grid] dx is given"
-    if meas.bottom_depth <= AUTO_UNIFORM_MAX + 1e-12:
-        return "uniform", f"{depth} is within {100 * AUTO_UNIFORM_MAX:g} cm"
-    return "stretched", f"{depth} is deeper than {100 * AUTO_UNIFORM_MAX:g} cm"
-
-
-def grid_chosen(meas, grid_cfg: dict, grid: Grid) -> dict:
-    """What ``[grid] kind = "auto"`` (the default) chose for the case, for ``fit`` to print and
-    ``result.json`` to keep: ``{"kind", "nodes", "top_mm", "deep_mm", "steps_per_interval",
-    "why"}``; {} when the kind was set by hand."""
-    kind, why = grid_kind(meas, grid_cfg)
-    if not why:
-        return {}
-    dx = np.diff(grid.x)
-    return {"kind": kind, "nodes": int(grid.n_nodes), "top_mm": round(1e3 * float(dx[0]), 1),
-            "deep_mm": round(1e3 * float(dx.max()), 1),
-            "steps_per_interval": int(np.max(grid.substeps)), "why": why}
+    return model, space, posterior, chosen
 
 
 def _theta_at(space: ParameterSpace, values: dict) -> np.ndarray:
