@@ -6,9 +6,10 @@
 1. Cost of one gradient (a solve and its adjoint sweep, the unit of an ``hmc`` step) and of one
    solve, for 16 parameter sets, on windows of 1, 3 and 7 days (best of 7 repeats), with the
    ratio to the 1-day window: it should grow about linearly with the record. Side by side: the
-   gradient on one thread (the serial blocks) against the two blocks of 8 sets on numba's
-   threads that long solves use (``solver.forward._PARALLEL_WORK``); the two give the same
-   numbers bit for bit (checked here). ``kernels_ms``: how much of the threaded gradient is
+   gradient on one thread (the serial blocks, the default) against two blocks of 8 sets on
+   numba's threads (``solver.forward._PARALLEL_WORK``, off: a busy second core makes them
+   several times slower); the two give the same numbers bit for bit (checked here).
+   ``kernels_ms``: how much of the gradient is
    spent in the compiled forward and reverse-sweep kernels; ``python_ms``, the rest (the
    coefficients, the observation operators, the likelihood and its cotangent, in NumPy).
 2. The 72-h window run to the stopping rule (ESS >= 1000 for every parameter, >= 50 tau,
@@ -118,7 +119,7 @@ def cost_by_length(sets: int = 16) -> list[dict]:
         try:
             forward._PARALLEL_WORK = np.inf
             serial, g1 = _best(grad), grad()
-            forward._PARALLEL_WORK = default
+            forward._PARALLEL_WORK = 0.0  # two blocks of 8 on numba's threads
             threads, g2 = _best(grad), grad()
             kernels = _kernel_time(grad)
         finally:
@@ -127,10 +128,10 @@ def cost_by_length(sets: int = 16) -> list[dict]:
         s = _best(lambda pb=pb, th=theta: pb.posterior(th))
         rows.append({"days": days, "intervals": pb.model.grid.n_obs - 1,
                      "nodes": pb.model.grid.n_nodes, "params": len(pb.space.free),
-                     "threads": forward._parallel(sets, pb.model.grid),
-                     "grad_ms_1thread": 1e3 * serial, "grad_ms": 1e3 * threads,
+                     "threads_by_default": forward._parallel(sets, pb.model.grid),
+                     "grad_ms": 1e3 * serial, "grad_ms_2threads": 1e3 * threads,
                      "thread_speedup": serial / threads, "kernels_ms": 1e3 * kernels,
-                     "python_ms": 1e3 * (threads - kernels), "solve_ms": 1e3 * s})
+                     "python_ms": 1e3 * (serial - kernels), "solve_ms": 1e3 * s})
     for r in rows:
         r["grad_vs_1day"] = r["grad_ms"] / rows[0]["grad_ms"]
         r["length_vs_1day"] = r["intervals"] / rows[0]["intervals"]

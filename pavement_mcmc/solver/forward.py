@@ -19,8 +19,11 @@ _BLOCK_MAX = 256  # most parameter sets per compiled block (working set stays in
 _SCALAR_MAX = 4  # up to this many sets: the one-set-at-a-time scalar CN kernel
 _PARALLEL_MIN = 64  # from this many sets: blocks run on numba's threads
 # ... or from 16 sets (two blocks of 8) when a solve is long: sets x solver steps x nodes above
-# this (a 72-h field window, 16 sets: 7e5; Case C: 1e5, where the threads' start-up would cost)
-_PARALLEL_WORK = 3e5
+# this. Off: on the 72-h grass window (16 sets, 2 cores) two threads gave a gradient in 1.67 ms
+# against 1.98 ms on one when the machine was idle, but 15.9 ms against 2.3 ms when another
+# process held the second core (the threads meet at every observation interval and wait for a
+# descheduled partner). The same numbers either way (blocks are independent).
+_PARALLEL_WORK = math.inf
 _N_START = 1  # CN steps replaced by two backward-Euler half steps each (Rannacher start-up)
 _DAMP = True  # ... and the first CN step of every observation interval (h jumps there)
 
