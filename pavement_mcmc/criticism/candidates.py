@@ -67,9 +67,10 @@ def _candidate_problem(ref_problem, ref_fit: Fit, name, h_spec: dict):
 
 def variant(problem, extensions, h_spec):
     """``problem``'s case with other extensions or h(t), scored with the same likelihood: a
-    candidate shares the base problem's data covariance (noisy inputs integrated out)."""
+    candidate shares the base problem's data covariance (noisy inputs integrated out) and its
+    solver grid."""
     return build_problem(problem.cfg, extensions=extensions, h_spec=h_spec,
-                         input_noise=problem.posterior.input_noise)
+                         input_noise=problem.posterior.input_noise, grid=problem.model.grid)
 
 
 def fit_extension(ref_problem, ref_fit: Fit, name: str, h_spec: dict) -> Fit:

@@ -42,7 +42,7 @@ class Problem:
 
 
 def build_problem(cfg, extensions=None, h_spec: dict | None = None, *,
-                  input_noise=None) -> Problem:
+                  input_noise=None, grid: Grid | None = None) -> Problem:
     """Build the :class:`Problem` of a loaded case config.
 
     Parameters
@@ -56,9 +56,12 @@ def build_problem(cfg, extensions=None, h_spec: dict | None = None, *,
         stored run's ``input_ref``: no optimisation); an
         :class:`~pavement_mcmc.posterior.input_noise.InputNoise` is used as is (a candidate
         model scored against a base model shares the base's data covariance).
+    grid : use this solver grid instead of choosing one from ``[grid]`` (a candidate model
+        scored against a base model shares the base's grid: the same discretisation, and the
+        choice is not repeated).
     """
     try:
-        model, space, posterior, grid_chosen = _assemble(cfg, extensions, h_spec)
+        model, space, posterior, grid_chosen = _assemble(cfg, extensions, h_spec, grid)
     except UserError:
         raise
     except ValueError as err:  # a name or value of the case's config: say which file
@@ -74,7 +77,7 @@ def build_problem(cfg, extensions=None, h_spec: dict | None = None, *,
     return Problem(cfg, model, space, posterior, ref, grid_chosen)
 
 
-def _assemble(cfg, extensions, h_spec):
+def _assemble(cfg, extensions, h_spec, given: Grid | None = None):
     """Model, parameter space, posterior and the grid's choice of a case (a ValueError for a bad
     config value)."""
     model_cfg = cfg.model
@@ -97,7 +100,10 @@ def _assemble(cfg, extensions, h_spec):
         space = m.parameter_space().configure(_known(cfg.parameters, m))
         return m.predict(space.expand(space.initial()[None]))[0]
 
-    grid, chosen = build_grid(meas, grid_cfg, predict)
+    if given is None:
+        grid, chosen = build_grid(meas, grid_cfg, predict)
+    else:
+        grid, chosen = given, {}
     model = model_on(grid)
     flux_sd = None
     if model.plates:

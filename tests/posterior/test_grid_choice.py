@@ -129,3 +129,15 @@ def test_fit_prints_and_records_the_grid_it_chose(tmp_path, capsys):
     assert "sampler options chosen:" in out
     rec = json.loads((tmp_path / "run" / "result.json").read_text())
     assert rec["grid_chosen"]["kind"] == "stretched"
+
+
+def test_a_candidate_of_the_criticism_shares_the_base_grid(tmp_path):
+    """The grid is chosen once, for the base model: a candidate scored against it is solved on
+    the same grid (the same discretisation, and the choice is not repeated per candidate)."""
+    from pavement_mcmc.criticism.candidates import variant
+
+    base = build_problem(load_case(_field_case(tmp_path)))
+    assert base.grid_chosen.get("kind") == "stretched"
+    cand = variant(base, ["two_layer"], None)
+    assert cand.model.grid is base.model.grid and cand.grid_chosen == {}
+    assert [e.name for e in cand.model.extensions] == ["two_layer"]
