@@ -8,6 +8,7 @@ dict of such arrays. Out-of-support values give ``-inf``, never NaN or a warning
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 from scipy.special import log_ndtr
@@ -92,7 +93,9 @@ class TruncatedNormal(_Gaussian):
     lower: float = 0.0
     upper: float = np.inf
 
+    @cached_property
     def _log_norm(self) -> float:
+        """log of the mass inside the bounds (worked out once: a prior is frozen)."""
         a = (self.lower - self.mu) / self.sigma
         b = (self.upper - self.mu) / self.sigma
         # log(Phi(b) - Phi(a)), stable for the usual case b = inf
@@ -103,7 +106,7 @@ class TruncatedNormal(_Gaussian):
     def logpdf(self, x):
         x = np.asarray(x, float)
         z = (x - self.mu) / self.sigma
-        out = -0.5 * z * z - np.log(self.sigma) - _LOG_SQRT_2PI - self._log_norm()
+        out = -0.5 * z * z - np.log(self.sigma) - _LOG_SQRT_2PI - self._log_norm
         return np.where((x >= self.lower) & (x <= self.upper), out, -np.inf)
 
     def sample(self, rng, size):

@@ -11,6 +11,7 @@ from __future__ import annotations
 import re
 from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
+from operator import is_, itemgetter
 
 import numpy as np
 
@@ -117,6 +118,12 @@ class ParameterSpace:
             raise ValueError(f"parameter names clash: {dup}")
         self.params = {p.name: p for p in params}
         self.joint_priors = list(joint_priors or [])
+        # a space is not changed after it is made (``configure`` makes a new one): what the
+        # per-evaluation calls need is worked out once
+        self._free = [n for n, p in self.params.items() if p.vary]
+        self._col = {n: i for i, n in enumerate(self._free)}
+        self._fixed = [(n, p.value) for n, p in self.params.items() if not p.vary]
+        self._columns: dict = {}  # columns()'s index plans by names (shared by every expand)
 
     # -- views -------------------------------------------------------------------------------
     @property
@@ -125,7 +132,7 @@ class ParameterSpace:
 
     @property
     def free(self) -> list[str]:
-        return [n for n, p in self.params.items() if p.vary]
+        return list(self._free)
 
     def __getitem__(self, name: str) -> Parameter:
         return self.params[name]
@@ -162,15 +169,14 @@ class ParameterSpace:
     def expand(self, theta: np.ndarray) -> dict[str, np.ndarray]:
         """Free-parameter matrix ``(n_sets, n_free)`` -> ``{name: (n_sets,)}`` for all parameters."""
         theta = np.atleast_2d(np.asarray(theta, float))
-        free = self.free
+        free = self._free
         if theta.shape[1] != len(free):
             raise ValueError(f"theta has {theta.shape[1]} columns, expected {len(free)}: {free}")
-        out = ParameterSets({n: theta[:, i] for i, n in enumerate(free)})
-        out.theta, out.col, out.views = theta, {n: i for i, n in enumerate(free)}, tuple(out.values())
+        out = ParameterSets(zip(free, theta.T))  # column views theta[:, i]
+        out.theta, out.col, out.views, out.plans = theta, self._col, tuple(out.values()), self._columns
         n_sets = theta.shape[0]
-        for n, p in self.params.items():
-            if not p.vary:
-                out[n] = np.full(n_sets, p.value)
+        for n, value in self._fixed:
+            out[n] = np.full(n_sets, value)
         return out
 
     def values(self) -> dict[str, np.ndarray]:
@@ -322,6 +328,7 @@ class ParameterSets(dict):
     theta: np.ndarray
     col: dict[str, int]
     views: tuple  # the column views, as expand made them
+    plans: dict  # columns()'s plans, shared by the space's expands
 
 
 def columns(p: dict[str, np.ndarray], names) -> np.ndarray:
@@ -330,10 +337,32 @@ def columns(p: dict[str, np.ndarray], names) -> np.ndarray:
     replaced after :meth:`ParameterSpace.expand`), else stacked."""
     theta = getattr(p, "theta", None)
     if theta is not None and len(names):
-        idx = [p.col.get(n, -1) for n in names]
-        if min(idx) >= 0 and all(p[n] is p.views[i] for n, i in zip(names, idx, strict=True)):
-            lo = idx[0]
-            if idx == list(range(lo, lo + len(idx))):  # consecutive columns: a view, no copy
-                return theta[:, lo:lo + len(idx)]
-            return theta[:, idx]
+        plan = _plan(p, names)
+        if plan is not None:
+            same, views, block = plan
+            if all(map(is_, same(p), views(p.views))):  # none replaced after expand
+                return theta[:, block]
     return np.stack([np.asarray(p[n], float) for n in names], axis=-1)
+
+
+def _plan(p: ParameterSets, names):
+    """How :func:`columns` reads ``names`` from ``p``'s matrix, worked out once per space and
+    names (``p.plans``): getters of the entries and of their column views, and the block (a
+    slice for consecutive columns: a view, no copy); None when a name is not a free column."""
+    key = tuple(names)
+    plan = p.plans.get(key, False)
+    if plan is False:
+        idx = [p.col.get(n, -1) for n in key]
+        plan = None
+        if min(idx) >= 0:
+            lo = idx[0]
+            block = slice(lo, lo + len(idx)) if idx == list(range(lo, lo + len(idx))) else idx
+            plan = (_getter(key), _getter(idx), block)
+        p.plans[key] = plan
+    return plan
+
+
+def _getter(keys):
+    """``itemgetter`` that always returns a tuple (also of one key)."""
+    get = itemgetter(*keys)
+    return get if len(keys) > 1 else (lambda d: (get(d),))

@@ -16,6 +16,7 @@ import numpy as np
 from ..data.measurements import Measurements
 from ..parameters import Parameter, ParameterSpace
 from ..parameters.priors import Flat, GMRFSmoothness, Rayleigh, TruncatedNormal
+from ..parameters.space import columns
 from ..solver import Coefficients, Forcing, Grid, solve, solve_vjp
 from .base import Extension
 from .hbasis import HBasis
@@ -134,7 +135,13 @@ class Model:
             h = self.h_basis.evaluate(p)
         q = (np.zeros((n_sets, self.meas.n_obs)) if self.top_measured
              else np.broadcast_to(self.meas.q_net, (n_sets, self.meas.n_obs)).copy())
-        coeffs = Coefficients.uniform(kappa, np.asarray(p["C"], float), h, q, self.grid.x.size)
+        C, n = np.asarray(p["C"], float), self.grid.x.size
+        if kappa.ndim == C.ndim == 1 and C.size == n_sets == h.shape[0]:
+            # Coefficients.uniform's arrays, without copying the fresh h and q once more
+            coeffs = Coefficients(np.repeat(kappa[:, None], n - 1, axis=1),
+                                  np.repeat(C[:, None], n, axis=1), h, q)
+        else:
+            coeffs = Coefficients.uniform(kappa, C, h, q, n)
         for ext in self.extensions:
             ext.material(coeffs, p, self)
         for ext in self.extensions:
@@ -191,7 +198,7 @@ class Model:
         at the plate), or None without plates."""
         if not self.plates:
             return None
-        f = np.stack([np.asarray(p[n], float) for n in self.plate_names], axis=-1)
+        f = columns(p, self.plate_names)
         return f[:, None, :] * heat_flux(T_nodes, coeffs.kappa, self.grid.x, self._flux_c,
                                          self._flux_w)
 
@@ -258,9 +265,9 @@ class Model:
         fd = [n for n in ("kappa", "C") if n in read]
         if "h" in read and not self.replaces_h:
             fd += list(self.h_basis.names)
-        own = {q.name for e in self.extensions if e.surface_vjp is None
-               for q in e.parameters(self.meas)}
-        fd += [n for n in p if n in own]
+        own = self._fd_parameters
+        if own:
+            fd += [n for n in p if n in own]
         grads.update(self._coefficient_vjp(p, fd, g_final))
         for name, v in direct.items():
             grads[name] = grads.get(name, 0.0) + v
@@ -273,6 +280,13 @@ class Model:
             G[:, len(names):] = h_block
             names += list(self.h_basis.names)
         return out, names, G
+
+    @property
+    def _fd_parameters(self) -> set[str]:
+        """The parameters of extensions whose surface hook has no vector-Jacobian product (their
+        gradients come from finite differences of the coefficients)."""
+        return {q.name for e in self.extensions if e.surface_vjp is None
+                for q in e.parameters(self.meas)}
 
     def _coefficient_vjp(self, p, names, g) -> dict[str, np.ndarray]:
         """``sum <g, d coeffs / d p_n>`` for each name, by central differences of the
@@ -314,7 +328,7 @@ class Model:
         ``gT`` when given; direct gradients: the cell conductivities ``"kappa"`` and the
         calibration factors)."""
         raw = heat_flux(T_nodes, coeffs.kappa, self.grid.x, self._flux_c, self._flux_w)
-        f = np.stack([np.asarray(p[n], float) for n in self.plate_names], axis=-1)
+        f = columns(p, self.plate_names)
         gT, gk = heat_flux_vjp(g_flux * f[:, None, :], T_nodes, coeffs.kappa, self.grid.x,
                                self._flux_c, self._flux_w, gT)
         direct = {"kappa": gk}

@@ -200,23 +200,33 @@ class LogPosterior:
         model = self.model
         keep = {}
         temps = self.streams[0]
-        compiled = len(self.streams) == 1 and temps.compiled_applies(model)
+        compiled = temps.compiled_applies(model)
+        alone = len(self.streams) == 1
 
         def cotangent(T_nodes, coeffs):
-            terms = temps.compiled_terms(model, T_nodes) if compiled else None
-            if terms is not None:  # the plain temperatures: two compiled calls, the same numbers
+            terms = temps.compiled_terms(model, T_nodes, alone) if compiled else None
+            if terms is not None and alone:  # the plain temperatures: two compiled calls
                 keep["ll"], keep["rmse"], gT = terms
                 return gT, {}
-            preds = [st.predict(model, T_nodes, coeffs, p) for st in self.streams]
-            rs = [pr[:, 1:, :] - st.data for st, pr in zip(self.streams, preds, strict=True)]
-            zs = [st.whiten(r) for st, r in zip(self.streams, rs, strict=True)]
+            # the temperatures' whitened residuals and RMSE from the compiled path when it
+            # applies (the same numbers as predict / whiten), the other streams' in NumPy
+            rest = self.streams[1:] if terms is not None else self.streams
+            preds = [st.predict(model, T_nodes, coeffs, p) for st in rest]
+            rs = [pr[:, 1:, :] - st.data for st, pr in zip(rest, preds, strict=True)]
+            zs = [st.whiten(r) for st, r in zip(rest, rs, strict=True)]
+            rmse = [np.sqrt(np.mean(r * r, axis=1)) for r in rs]
+            if terms is not None:
+                zs.insert(0, terms[0])
+                rmse.insert(0, terms[1])
             ll = log_likelihood(self.streams, zs[0] if len(zs) == 1 else np.concatenate(zs, axis=1))
             ok = np.isfinite(ll)
             keep["ll"] = np.where(ok, ll, -np.inf)
-            rmse = [np.sqrt(np.mean(r * r, axis=1)) for r in rs]
             keep["rmse"] = rmse[0] if len(rmse) == 1 else np.concatenate(rmse, axis=1)
             gT, direct = None, {}
-            for st, pr, r, z in zip(self.streams, preds, rs, zs, strict=True):
+            if terms is not None:
+                gT = temps.compiled_cotangent(model, T_nodes, terms[0], ok)
+                zs = zs[1:]
+            for st, pr, r, z in zip(rest, preds, rs, zs, strict=True):
                 gT, d = st.vjp(model, pr, r, z, ok, T_nodes, coeffs, p, gT)
                 for k, v in d.items():
                     direct[k] = direct[k] + v if k in direct else v

@@ -152,12 +152,14 @@ class Temperatures(Observation):
         input noise), read at the sensors' nominal depths (no ``observe`` hook)."""
         return self.input_noise is None and model.observes_nominal
 
-    def compiled_terms(self, model, T_nodes):
+    def compiled_terms(self, model, T_nodes, alone: bool = True):
         """``(ll, rmse, gT)`` of this stream alone by the compiled path (:mod:`.compiled`;
         the caller checks :meth:`compiled_applies`): what :meth:`predict`, :meth:`whiten`,
         :func:`log_likelihood` and :meth:`vjp` give, to the bit, in two compiled calls; None
         for nodal temperatures in a layout other than the solver's or C order (NumPy's
-        summation order is only known for those)."""
+        summation order is only known for those). Beside other streams (``alone=False``):
+        ``(z, rmse)``, the whitened residuals and the RMSE, whose log-likelihood and
+        cotangent (:meth:`compiled_cotangent`) need every stream's rows."""
         if T_nodes.transpose(1, 2, 0).flags.c_contiguous:  # the solver's buffer, sets innermost
             pairwise = False
         elif T_nodes.flags.c_contiguous:
@@ -167,9 +169,16 @@ class Temperatures(Observation):
         oi, ow = model.sensor_weights
         ll, rmse, z = temperature_terms(T_nodes, oi, ow, self.data, self.sigma, self.logdet,
                                         self.size * _LOG_2PI, pairwise)
+        if not alone:  # in the layout NumPy's whiten would give (it decides the sum's order)
+            return (z if pairwise else np.asfortranarray(z)), rmse
         ok = np.isfinite(ll)
-        gT = temperature_cotangent(z, ok, oi, ow, self.sigma, T_nodes.shape[1], T_nodes.shape[2])
-        return np.where(ok, ll, -np.inf), rmse, gT
+        return np.where(ok, ll, -np.inf), rmse, self.compiled_cotangent(model, T_nodes, z, ok)
+
+    def compiled_cotangent(self, model, T_nodes, z, ok):
+        """d log-likelihood / d nodal temperatures of this stream from its whitened residuals
+        ``z`` (:meth:`compiled_terms`); rows without ``ok`` get 0 (as :meth:`vjp`)."""
+        oi, ow = model.sensor_weights
+        return temperature_cotangent(z, ok, oi, ow, self.sigma, T_nodes.shape[1], T_nodes.shape[2])
 
     def vjp(self, model, pred, r, z, ok, T_nodes, coeffs, p, gT):
         gp = np.zeros_like(pred)
@@ -201,7 +210,9 @@ class Plates(Observation):
 
     @property
     def logdet(self) -> float:
-        return 2.0 * float(np.sum(np.log(self.sd)))
+        if self.__dict__.get("_logdet_of") is not self.sd:  # once per sd array
+            self._logdet, self._logdet_of = 2.0 * float(np.sum(np.log(self.sd))), self.sd
+        return self._logdet
 
     def marginal_sd(self):
         return self.sd

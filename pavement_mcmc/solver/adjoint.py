@@ -121,7 +121,7 @@ def solve_vjp(
     S, N = kappa.shape
     n_obs = grid.n_obs
     P = solver._problem(grid, forcing, kappa, C, h, q, beta, coeffs.T_ref, False)
-    n_slots = int(K.slot_layout(P.substeps, P.n_start, P.damp)[1][-1]) + 1
+    n_slots = _n_slots(grid, P)
     stored = 8 * S * n_slots * N <= _STORE_MAX
     scalar = stored and S <= solver._SCALAR_MAX
     parallel = solver._parallel(S, grid)
@@ -158,6 +158,16 @@ def solve_vjp(
         grads["h"][:] = 0.0
         grads["q"][:] = 0.0
     return out, grads
+
+
+def _n_slots(grid: Grid, P) -> int:
+    """Solver states of a run (the last slot of :func:`.kernels.adjoint.slot_layout`, plus 1),
+    worked out once per grid and start-up (the grid is frozen)."""
+    memo = grid.__dict__.setdefault("_n_slots", {})
+    key = (P.n_start, P.damp)
+    if key not in memo:
+        memo[key] = int(K.slot_layout(P.substeps, P.n_start, P.damp)[1][-1]) + 1
+    return memo[key]
 
 
 def _gradients(grid, kappa, C, h, q, acc_a, acc_b, acc_h, acc_q) -> dict[str, np.ndarray]:

@@ -41,30 +41,34 @@ def _check(grid: Grid, forcing: Forcing, coeffs: Coefficients) -> tuple[np.ndarr
     if kappa.ndim != 2 or kappa.shape[0] < 1:
         raise ValueError(f"Coefficients.kappa must be (n_sets, n_nodes-1), got {kappa.shape}")
     S = kappa.shape[0]
-    want = {
-        "kappa": (S, n_nodes - 1),
-        "C": (S, n_nodes),
-        "h": (S, n_obs - 1),
-        "q": (S, n_obs),
-    }
-    arrays = {"kappa": kappa}
-    for name in ("C", "h", "q"):
-        arrays[name] = np.asarray(getattr(coeffs, name), dtype=float)
-    for name, shape in want.items():
-        if arrays[name].shape != shape:
+    C = np.asarray(coeffs.C, dtype=float)
+    h = np.asarray(coeffs.h, dtype=float)
+    q = np.asarray(coeffs.q, dtype=float)
+    for name, arr, shape in (("kappa", kappa, (S, n_nodes - 1)), ("C", C, (S, n_nodes)),
+                             ("h", h, (S, n_obs - 1)), ("q", q, (S, n_obs))):
+        if arr.shape != shape:
             raise ValueError(
-                f"Coefficients.{name} has shape {arrays[name].shape}, expected {shape} "
+                f"Coefficients.{name} has shape {arr.shape}, expected {shape} "
                 f"(n_sets={S}, n_nodes={n_nodes}, n_obs={n_obs})"
             )
-        if not _all_finite(arrays[name]):
+        if not _all_finite(arr):
             raise ValueError(f"Coefficients.{name} contains non-finite values")
-    if not (kappa.min() > 0 and arrays["C"][:, :-1].min() > 0):
+    if not (kappa.min() > 0 and C[:, :-1].min() > 0):
         raise ValueError("Coefficients.kappa and C must be positive")
     beta = coeffs.beta
     if beta is not None:
         beta = np.asarray(beta, dtype=float)
         if beta.shape != (S,) or not _all_finite(beta):
             raise ValueError(f"Coefficients.beta must be finite (n_sets,)=({S},), got {beta.shape}")
+    if forcing.__dict__.get("_checked_for") is not grid:  # once per forcing and grid (frozen)
+        _check_forcing(grid, forcing)
+        forcing.__dict__["_checked_for"] = grid
+    return kappa, C, h, q, beta
+
+
+def _check_forcing(grid: Grid, forcing: Forcing) -> None:
+    """The forcing's shapes on ``grid``, and a finite Dirichlet top."""
+    n_obs, n_nodes = grid.n_obs, grid.n_nodes
     for name, shape in (("T_air", (n_obs,)), ("T_bottom", (n_obs,)), ("T0", (n_nodes,))):
         arr = np.asarray(getattr(forcing, name))
         if arr.shape != shape:
@@ -76,7 +80,6 @@ def _check(grid: Grid, forcing: Forcing, coeffs: Coefficients) -> tuple[np.ndarr
             raise ValueError(f"Forcing.T_top must be finite (n_obs,)=({n_obs},), got shape {T_top.shape}")
         if n_nodes < 3:
             raise ValueError(f"a Dirichlet top (Forcing.T_top) needs a grid with >= 3 nodes, got {n_nodes}")
-    return kappa, arrays["C"], arrays["h"], arrays["q"], beta
 
 
 def _problem(
@@ -146,10 +149,10 @@ def solve(grid: Grid, forcing: Forcing, coeffs: Coefficients, scheme: str = "cn"
 
 def _parallel(S: int, grid: Grid | None = None) -> bool:
     """Run blocks of sets on numba's threads? Many sets, or 16 and more on a long solve."""
-    if numba.get_num_threads() < 2:
-        return False
-    work = 0.0 if grid is None else float(S) * float(np.sum(grid.substeps)) * grid.n_nodes
-    return S >= _PARALLEL_MIN or (S >= 16 and work >= _PARALLEL_WORK)
+    if S >= _PARALLEL_MIN or S < 16 or grid is None or _PARALLEL_WORK == math.inf:
+        return S >= _PARALLEL_MIN and numba.get_num_threads() >= 2  # no need to count the work
+    work = float(S) * float(np.sum(grid.substeps)) * grid.n_nodes
+    return work >= _PARALLEL_WORK and numba.get_num_threads() >= 2
 
 
 def _block(S: int, parallel: bool) -> int:

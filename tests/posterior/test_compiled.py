@@ -65,3 +65,36 @@ def test_compiled_path_used_only_when_it_applies():
     plain = build_problem(load_case(REPO / "runs" / "caseA.toml")).posterior
     plain.streams[0].input_noise = object()  # whitened by an input-noise covariance
     assert not plain.streams[0].compiled_applies(plain.model)
+
+
+def test_compiled_temperatures_beside_a_plate_equal_generic_bitwise(tmp_path, monkeypatch):
+    """With a heat-flux plate as a second stream, the temperatures' part still takes the
+    compiled path; the log-likelihood (summed over both streams' whitened residuals), its
+    gradient and the blobs are the generic path's to the bit. The compiled residuals must come
+    in the layout NumPy's whitening gives, which decides the order of the sum of squares."""
+    from pavement_mcmc.posterior.observations import Temperatures
+    from pavement_mcmc.synthetic.corpus import field_twins, write_twin
+
+    twin = field_twins()[1]
+    toml = write_twin(twin, tmp_path / twin.name)
+    cfg = load_case(toml, {"data": {"window_hours": [0, 24]},
+                           "model": {"h": {"kind": "uniform", "n": 12}},
+                           "grid": {"dx": 0.01, "dt": 600.0}})
+    post = build_problem(cfg).posterior
+    assert len(post.streams) == 2 and post.streams[0].compiled_applies(post.model)
+    rng = np.random.default_rng(5)
+    th = np.repeat(post.space.initial()[None], 5, 0) * (1 + 0.05 * rng.standard_normal((5, 1)))
+    used = []
+    original = Temperatures.compiled_cotangent
+
+    def spy(self, *a):
+        used.append(True)
+        return original(self, *a)
+
+    monkeypatch.setattr(Temperatures, "compiled_cotangent", spy)
+    got = post.loglik_and_grad(th, "adjoint")
+    assert used  # the compiled path was taken
+    monkeypatch.setattr(Temperatures, "compiled_applies", lambda self, model: False)
+    ref = post.loglik_and_grad(th, "adjoint")
+    for a, b in zip(ref, got, strict=True):
+        assert np.array_equal(a, b)
