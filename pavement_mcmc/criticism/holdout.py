@@ -38,11 +38,26 @@ class HoldOut:
     labels : held-out sensor labels.
     rmse : (n_sensors,) RMSE of each held-out sensor's prediction, degC.
     lpd : mean log predictive density per held-out datum (plug-in Gaussian).
+    lpd_sensors : (n_sensors,) the same for each fold (its held-out sensor's data alone);
+        ``lpd`` is their mean (every sensor has as many data).
     """
 
     labels: list[str]
     rmse: np.ndarray
     lpd: float
+    lpd_sensors: np.ndarray | None = None
+
+    def carried_by(self, other: HoldOut) -> tuple[str, float] | None:
+        """The fold that carries most of the change of :attr:`lpd` from ``other`` (the same
+        sensors) and its share of that change; None when the change is nil or unknown."""
+        if self.lpd_sensors is None or other.lpd_sensors is None or self.labels != other.labels:
+            return None
+        d = (self.lpd_sensors - other.lpd_sensors) / len(self.labels)
+        total = float(np.sum(d))
+        if total == 0.0:
+            return None
+        k = int(np.argmax(d * np.sign(total)))
+        return self.labels[k], float(d[k] / total)
 
     @property
     def rmse_all(self) -> float:
@@ -54,6 +69,8 @@ class HoldOut:
             "rmse": dict(zip(self.labels, self.rmse.tolist(), strict=True)),
             "rmse_all": self.rmse_all,
             "lpd_per_datum": self.lpd,
+            "lpd_per_datum_by_sensor": (None if self.lpd_sensors is None else
+                                        dict(zip(self.labels, self.lpd_sensors.tolist(), strict=True))),
         }
 
 
@@ -100,4 +117,5 @@ def leave_one_sensor_out(problem, start: dict[str, float] | None = None) -> Hold
         rmse[k] = float(np.sqrt(np.mean(r**2)))
         sd = sd_all[:, k]
         lp.append(-0.5 * (r / sd) ** 2 - np.log(sd) - 0.5 * _LOG_2PI)
-    return HoldOut(list(meas.sensor_labels), rmse, float(np.mean(np.concatenate(lp))))
+    return HoldOut(list(meas.sensor_labels), rmse, float(np.mean(np.concatenate(lp))),
+                   np.array([float(np.mean(v)) for v in lp]))

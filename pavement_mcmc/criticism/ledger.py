@@ -119,7 +119,30 @@ class Ledger:
                 + (f"{r.forecast.rmse:9.3f}{r.forecast.lpd:8.2f}" if r.forecast is not None
                    else f"{'-':>9}{'-':>8}")
             )
-        return "\n".join(lines)
+        return "\n".join(lines + self._folds_text())
+
+    def _folds_text(self) -> list[str]:
+        """The leave-one-sensor-out score fold by fold, and which fold carries each run's change
+        of the mean against the first run (one badly predicted sensor can carry all of it)."""
+        rows = [r for r in self.rows if r.holdout is not None and r.holdout.lpd_sensors is not None]
+        if not rows:
+            return []
+        labs = rows[0].holdout.labels
+        lines = ["", "Leave-one-sensor-out fold by fold: each sensor predicted by a refit without "
+                 "it, RMSE °C (log predictive density per datum)",
+                 f"{'run':<22}" + "".join(f"{s:>18}" for s in labs)]
+        for r in rows:
+            h = r.holdout
+            lines.append(f"{r.label[:21]:<22}" + "".join(
+                f"{f'{e:.3f} ({lp:+.2f})':>18}" for e, lp in zip(h.rmse, h.lpd_sensors, strict=True)))
+        first = rows[0]
+        for r in rows[1:]:
+            carried = r.holdout.carried_by(first.holdout)
+            if carried is not None:
+                lab, share = carried
+                lines.append(f"{r.label}: LOSO lpd {r.holdout.lpd - first.holdout.lpd:+.3f} against "
+                             f"{first.label}, {100 * share:.0f} % of it from the fold that holds out {lab}")
+        return lines
 
 
 def _forecast_or_none(problem, values) -> Forecast | None:

@@ -1,0 +1,39 @@
+"""The leave-one-sensor-out score fold by fold: the mean over folds is the reported score, and
+``compare`` says which fold carries a run's change of it (one badly predicted sensor can carry
+all of it, as the desert's 5 cm fold does with two_layer)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from pavement_mcmc.criticism.fitting import refit
+from pavement_mcmc.criticism.holdout import HoldOut, leave_one_sensor_out
+from pavement_mcmc.criticism.ledger import ledger
+from pavement_mcmc.data import load_case
+from pavement_mcmc.posterior import build_problem
+
+
+def test_carried_by_names_the_fold_and_its_share():
+    labs = ["2cm", "5cm", "10cm"]
+    a = HoldOut(labs, np.ones(3), -1.0, np.array([-1.0, -1.0, -1.0]))
+    b = HoldOut(labs, np.ones(3), -0.5, np.array([-0.9, -1.0, -0.6]))  # +0.1 and +0.4
+    assert b.carried_by(a) == ("10cm", pytest.approx(0.8))
+    worse = HoldOut(labs, np.ones(3), -1.5, np.array([-1.2, -2.2, -1.1]))
+    assert worse.carried_by(a)[0] == "5cm"  # a fall is carried by the fold that fell most
+    assert a.carried_by(a) is None
+    assert HoldOut(labs, np.ones(3), -1.0).carried_by(a) is None  # a record without folds
+
+
+def test_loso_folds_average_to_the_score_and_show_in_compare():
+    pb = build_problem(load_case("runs/hidden.toml"))
+    base = refit(pb)
+    h = leave_one_sensor_out(pb, base.values())
+    assert h.lpd_sensors.shape == (pb.meas.n_sensors,)
+    assert np.mean(h.lpd_sensors) == pytest.approx(h.lpd, rel=1e-12)
+    assert h.to_dict()["lpd_per_datum_by_sensor"][h.labels[0]] == h.lpd_sensors[0]
+    two = build_problem(load_case("runs/hidden.toml"), extensions=["two_layer"])
+    fit2 = refit(two, {**base.values(), "kappa2": 0.8, "C2": 1.2e6, "d_layer": 0.02})
+    text = ledger([("base", pb, base.values()), ("two_layer", two, fit2.values())]).text()
+    assert "fold by fold" in text
+    assert "two_layer: LOSO lpd" in text and "of it from the fold that holds out " in text
