@@ -84,7 +84,11 @@ class Model:
     @property
     def plate_names(self) -> list[str]:
         """Calibration-factor parameter of each observed plate, e.g. ``plate_G5cm``."""
-        return [f"plate_{lab}" for lab in self.meas.plate_labels] if self.plates else []
+        memo = self.__dict__.get("_plate_names")  # named once (read in every gradient)
+        if memo is None or memo[0] is not self.meas or memo[1] != self.plates:
+            names = [f"plate_{lab}" for lab in self.meas.plate_labels] if self.plates else []
+            memo = self._plate_names = (self.meas, self.plates, names)
+        return list(memo[2])
 
     def parameter_space(self) -> ParameterSpace:
         """Every parameter of the model with the paper's priors; extensions add theirs.
