@@ -90,10 +90,15 @@ class Forecast:
     top_measured: bool = False
 
     @property
+    def driver(self) -> str:
+        """What alone drives the held-out period, for a sentence."""
+        return "the measured top sensor alone" if self.top_measured else "the forcing alone"
+
+    @property
     def future(self) -> str:
         """What drives the held-out period, for a caption."""
-        return ("then the measured top sensor alone" if self.top_measured
-                else f"then the forcing alone; future h(t): {self.rule} rule")
+        return f"then {self.driver}" + ("" if self.top_measured else
+                                         f"; future h(t): {self.rule} rule")
 
     def to_dict(self) -> dict:
         keep = ("rule", "origins", "horizon", "rmse", "rmse_sigma", "rmse_sensors", "lpd",

@@ -102,7 +102,7 @@ class Ledger:
         if ranked:
             fc = ranked[0].forecast
             lines += [f"Ranked by forecast of the held-out {fc.horizon:g} h (fit to the first "
-                      f"{fc.origins[-1]:g} h, then the forcing alone): "
+                      f"{fc.origins[-1]:g} h, then {fc.driver}): "
                       + " > ".join(f"{r.label} ({r.forecast.rmse:.3f} °C)" for r in ranked), ""]
         lines += [
             "RMSE and residuals in degC; LOSO lpd: leave-one-sensor-out log predictive "

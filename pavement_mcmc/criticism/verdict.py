@@ -10,6 +10,10 @@ from __future__ import annotations
 from .entries import DATA_THRESHOLD, ENERGY, FORECAST_THRESHOLD
 from .residuals import ResidualReport, noise_like
 
+#: share of the excess misfit a claimed candidate removes above which its leftover is "the size
+#: of the noise": a "none of these" after it is about the leftover's time structure alone
+SIZE_EXPLAINED = 0.95
+
 
 def _prior_conflicts(entries) -> str:
     """A sentence on the prior-driven candidates ('' if none)."""
@@ -69,7 +73,7 @@ def forecast_sentence(best, entries, fbase) -> str:
                 f"RMSE of {period} {fbase.rmse_sigma:.2f} σ -> {best.forecast_rmse_sigma:.2f} σ, "
                 f"F = {best.forecast_gain:.1f} <= {FORECAST_THRESHOLD:g}.")
     if best is not None and best.forecast_gain is not None:
-        return (f" It forecasts {period} from the forcing alone better than the base model: "
+        return (f" It forecasts {period} from {fbase.driver} better than the base model: "
                 f"RMSE {fbase.rmse_sigma:.2f} σ -> {best.forecast_rmse_sigma:.2f} σ (gain F = "
                 f"{best.forecast_gain:.0f} > {FORECAST_THRESHOLD:g}).")
     top = max((e for e in entries if e.forecast_gain is not None),
@@ -148,7 +152,14 @@ def _verdict_main(best, entries, lookalikes, rep, base, none) -> str:
                 f"C (scale symmetry with kappa, C and h; {best.delta_prior:.0f} of the score comes "
                 "from the priors): it is a radiometer error only if those priors are right."
             )
-        if none is not None:
+        if none is not None and none.of == best.name and best.excess_share >= SIZE_EXPLAINED:
+            # the size of the misfit is explained, not its time structure: say that, not "partly
+            # ... 100 % ... none of these" (measured-top daily windows at 1.0-1.1 sigma)
+            txt += (f" It brings the misfit to the size of the noise (RMSE {best.rmse_sigma:.2f} σ) "
+                    f"but what is left stays correlated in time (lag-1 {none.rho:.2f}): a small, "
+                    "slow error remains that no catalogue entry explains ("
+                    + "; ".join(none.why) + f"). Add {best.name}, then diagnose again.")
+        elif none is not None:
             txt += (f" It removes {100 * best.excess_share:.0f} % of the excess misfit; something "
                     "else is missing too (add it, then diagnose again). ")
             txt += none.text().splitlines()[0]

@@ -86,3 +86,4 @@ def test_a_plausibility_claim_is_not_worded_as_a_forecast_claim():
     fbase = SimpleNamespace(horizon=24.0, rmse_sigma=7.88)
     txt = forecast_sentence(e, [e], fbase)
     assert "not by its forecast" in txt and "F = 2.6 <= 15" in txt and "> 15" not in txt
+

@@ -1,0 +1,34 @@
+"""The verdict's wording where a claim and "none of these" meet (issue 22's readable verdict)."""
+
+from __future__ import annotations
+
+from types import SimpleNamespace
+
+
+def _claimed(excess):
+    from pavement_mcmc.criticism.entries import Entry
+
+    return Entry(name="two_layer", description="", reference="base", score=199.0, data_score=199.0,
+                 delta_chi2=2700.0, delta_prior=0.1, added_params=3.0, rho=0.86, rmse=0.107,
+                 rmse_sigma=1.07, rmse_sensors=[0.1], evidence=[], values={},
+                 forecast_gain=20.0, forecast_rmse_sigma=1.57, excess_share=excess)
+
+
+def test_a_claim_at_the_noise_size_with_a_correlated_leftover_says_so():
+    """A measured-top daily window: two_layer brings the RMSE to 1.07 sigma but the leftover has
+    lag-1 0.86, so "none of these" follows the claim. The verdict said "It removes 100 % of the
+    excess misfit; something else is missing too ... None of these", which reads as a
+    contradiction; it now says the size is explained and the time structure is not."""
+    from pavement_mcmc.criticism.unexplained import Unexplained
+    from pavement_mcmc.criticism.verdict import _verdict_main
+
+    base = SimpleNamespace(rmse=0.624)
+    none = Unexplained(why=["the best candidate, two_layer, leaves RMSE 1.07 σ and lag-1 0.86"],
+                       of="two_layer", rmse_sigma=1.07, rho=0.86, sensor="10cm", neighbours=[],
+                       sensor_rmse={"10cm": 0.1}, sensor_mean={"10cm": 0.0},
+                       correlations={"10cm": {}}, follows=None, hook="surface", template="")
+    txt = _verdict_main(_claimed(1.0), [], [], None, base, none)
+    assert "size of the noise" in txt and "lag-1 0.86" in txt and "Add two_layer" in txt
+    assert "100 % of the excess misfit" not in txt and "None of these" not in txt
+    part = _verdict_main(_claimed(0.6), [], [], None, base, none)  # a real "partly"
+    assert "removes 60 % of the excess misfit" in part and "None of these" in part
