@@ -14,6 +14,7 @@ from pathlib import Path
 
 from ..criticism.entries import DATA_THRESHOLD, FORECAST_THRESHOLD
 from ..criticism.ranking import finer_h_spec
+from ..criticism.verdict import headline
 from ..physics.hbasis import FINER_H
 from .common import add_json_flag, emit
 
@@ -69,7 +70,8 @@ def _summary(dx, how: str, label: str) -> list[str]:
         lines.append(_forecast_line(dx.forecast))
     rk = dx.ranking
     if rk is not None:
-        lines += ["", *textwrap.wrap(rk.verdict, 100), *next_step(rk)]
+        lines += ["", *textwrap.wrap(headline(rk), 100), "",
+                  *textwrap.wrap("Why: " + rk.verdict, 100), *next_step(rk)]
     return lines
 
 

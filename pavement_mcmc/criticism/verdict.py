@@ -182,3 +182,32 @@ def _verdict_main(best, entries, lookalikes, rep, base, none) -> str:
         f"No missing effect claimed: no candidate's data part passes {DATA_THRESHOLD:g} (best "
         f"{best_data:.0f}); RMSE {rep.rmse:.3f} °C = {rep.rmse_sigma:.2f} σ, lag-1 {rep.rho:.2f}."
     )
+
+
+def headline(rk) -> str:
+    """The verdict in one or two sentences, for the first line a user reads (the paragraph of
+    :func:`make_verdict` gives the reasons): the claimed effect and what credits it, or "none
+    of these" and where the evidence points, or no missing effect; then any alarm."""
+    best, fb = rk.best, rk.forecast
+    if best is not None:
+        by = (f"it forecasts the held-out {fb.horizon:g} h better, F = {best.forecast_gain:.0f} > "
+              f"{FORECAST_THRESHOLD:g}" if best.forecast_gain is not None and best.forecasts_better
+              else "it brings kappa and C back into the range of ground materials"
+              if best.plausibility_claim else f"its score {best.score:.0f}")
+        txt = f"Verdict: the model misses {best.name} ({by})"
+        if rk.none_of_these:
+            txt += (", and a small, slow error that no catalogue entry explains remains."
+                    if best.excess_share >= SIZE_EXPLAINED else
+                    ", and something else that no catalogue entry explains is missing too.")
+        else:
+            txt += "."
+    elif rk.none_of_these:
+        where = (f" The evidence points at the {rk.points_at['where']}." if rk.points_at else "")
+        txt = f"Verdict: none of the catalogue's effects explains the misfit.{where}"
+    else:
+        txt = "Verdict: no missing effect detected."
+    alarms = [f for f in rk.findings if f.level == "alarm"]
+    if alarms:
+        txt += (" The base fit is physically impossible ("
+                + ", ".join(f.value_text() for f in alarms) + ").")
+    return txt

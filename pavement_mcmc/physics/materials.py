@@ -82,6 +82,11 @@ class Finding:
     hi: float
     against: str
 
+    def value_text(self) -> str:
+        """The estimate with its unit, e.g. ``kappa = 12.7 W m-1 K-1``."""
+        scale, unit = _UNITS[self.quantity]
+        return f"{self.quantity} = {self.value * scale:.3g} {unit}"
+
     def text(self) -> str:
         scale, unit = _UNITS[self.quantity]
         return (f"{self.level.upper()}: {self.quantity} = {self.value * scale:.3g} {unit} is outside "

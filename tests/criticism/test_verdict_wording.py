@@ -32,3 +32,27 @@ def test_a_claim_at_the_noise_size_with_a_correlated_leftover_says_so():
     assert "100 % of the excess misfit" not in txt and "None of these" not in txt
     part = _verdict_main(_claimed(0.6), [], [], None, base, none)  # a real "partly"
     assert "removes 60 % of the excess misfit" in part and "None of these" in part
+
+
+def _ranking(best=None, none=False, points=None, alarms=()):
+    from pavement_mcmc.physics.materials import Finding
+
+    findings = [Finding("alarm", q, v, lo, hi, "every ground material") for q, v, lo, hi in alarms]
+    return SimpleNamespace(best=best, forecast=SimpleNamespace(horizon=24.0), none_of_these=none,
+                           points_at=points, findings=findings)
+
+
+def test_the_headline_states_the_verdict_in_a_sentence():
+    from pavement_mcmc.criticism.verdict import headline
+
+    claim = headline(_ranking(_claimed(1.0)))
+    assert claim == ("Verdict: the model misses two_layer (it forecasts the held-out 24 h better, "
+                     "F = 20 > 15).")
+    assert "small, slow error" in headline(_ranking(_claimed(1.0), none=True))
+    assert "something else" in headline(_ranking(_claimed(0.6), none=True))
+    grass = headline(_ranking(none=True, points={"where": "surface energy balance"},
+                              alarms=[("kappa", 12.7, 0.1, 4.0), ("C", 26.3e6, 0.6e6, 4.18e6)]))
+    assert grass == ("Verdict: none of the catalogue's effects explains the misfit. The evidence "
+                     "points at the surface energy balance. The base fit is physically impossible "
+                     "(kappa = 12.7 W m-1 K-1, C = 26.3 MJ m-3 K-1).")
+    assert headline(_ranking()) == "Verdict: no missing effect detected."
