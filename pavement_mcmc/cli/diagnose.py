@@ -224,9 +224,11 @@ def run(args) -> int:
             out["missing_effects.png"] = plot_ranking(dx.ranking)
         if dx.forecast is not None:
             best = None if dx.ranking is None else _best_forecast(dx.ranking)
+            sensors = list(dx.problem.meas.sensor_labels)
             out["forecast.png"] = plot_forecast(
                 dx.forecast, None if best is None else best.forecast,
-                labels=("base", "" if best is None else best.name))
+                labels=("base", "" if best is None else best.name),
+                sensors=sensors if len(sensors) == dx.forecast.observed.shape[1] else None)
         for name, fig in out.items():
             fig.savefig(figdir / name, dpi=110)
             figs.append(str(figdir / name))

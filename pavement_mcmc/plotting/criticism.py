@@ -100,26 +100,42 @@ def ranking_status(ranking, entry) -> str:
 
 
 def plot_ranking(ranking, fig: Figure | None = None) -> Figure:
-    """Penalised evidence of each candidate (bars) with the detection threshold: red only for
-    the claimed missing effect, orange for detected look-alikes, a hatched light grey for the
-    prior-driven candidates the verdict does not claim, grey for the rest (legend)."""
-    threshold = ranking.threshold
-    fig = new_figure(fig, (7.0, 0.45 * len(ranking.entries) + 1.2))
-    ax = fig.subplots()
+    """Each candidate's evidence (bars) against the claim rule's threshold: under the forecast
+    rule its forecast gain F (threshold :data:`~pavement_mcmc.criticism.entries.FORECAST_THRESHOLD`)
+    beside the in-sample penalised misfit drop S (supporting), else S alone. Red only for the
+    claimed missing effect, orange for detected look-alikes, a hatched light grey for the
+    prior-driven candidates the verdict does not claim, grey for the rest (legend below)."""
+    from ..criticism.entries import FORECAST_THRESHOLD
+
     entries = ranking.entries[::-1]
-    sc = np.array([e.score for e in entries])
-    shown = np.sign(sc) * np.log10(1 + np.abs(sc))
+    forecast = any(e.forecast_gain is not None for e in entries)
+    panels = [("S", [e.score for e in entries], ranking.threshold,
+               "in-sample misfit drop S (penalised)" + (", supporting" if forecast else ""))]
+    if forecast:
+        panels.insert(0, ("F", [np.nan if e.forecast_gain is None else e.forecast_gain
+                                for e in entries], FORECAST_THRESHOLD,
+                          "forecast gain F on the held-out period (the claim rule)"))
+    height = 0.45 * len(entries) + 2.2
+    fig = new_figure(fig, (4.2 * len(panels) + 2.2, height))
+    axes = np.atleast_1d(fig.subplots(1, len(panels), sharey=True))
     status = [ranking_status(ranking, e) for e in entries]
-    for k, st in sorted(RANKING_STYLE.items()):
-        rows = [i for i, s in enumerate(status) if s == k]
-        if rows:
-            ax.barh(rows, shown[rows], color=st[0], label=st[1],
-                    hatch="//" if k == "prior" else None, edgecolor="0.4" if k == "prior" else None)
-    ax.set_yticks(range(len(entries)), [e.name for e in entries])
-    ax.axvline(np.log10(1 + threshold), color="k", ls="--", lw=0.8, label=f"threshold {threshold:g}")
-    ax.set_xlabel("sign(S) log10(1 + |S|), S = penalised misfit drop")
-    ax.legend(fontsize=7, loc="lower right")
-    ax.set_title("which effect is missing?")
+    for ax, (name, values, threshold, what) in zip(axes, panels, strict=True):
+        sc = np.asarray(values, float)
+        shown = np.sign(sc) * np.log10(1 + np.abs(sc))
+        for k, st in sorted(RANKING_STYLE.items()):
+            rows = [i for i, s in enumerate(status) if s == k]
+            if rows:
+                ax.barh(rows, shown[rows], color=st[0], label=st[1],
+                        hatch="//" if k == "prior" else None,
+                        edgecolor="0.4" if k == "prior" else None)
+        ax.axvline(np.log10(1 + threshold), color="k", ls="--", lw=0.8)
+        ax.axvline(0.0, color="k", lw=0.5)
+        ax.set_title(f"{what}\n(dashed: {name} = {threshold:g})", fontsize=8)
+        ax.set_xlabel(f"sign({name}) log10(1 + |{name}|)", fontsize=8)
+    axes[0].set_yticks(range(len(entries)), [e.name for e in entries])
+    handles, texts = axes[0].get_legend_handles_labels()
+    fig.legend(handles, texts, fontsize=7, loc="outside lower center", ncol=2, frameon=False)
+    fig.suptitle("which effect is missing?")
     return fig
 
 
@@ -142,10 +158,12 @@ def plot_compare(ledger, fig: Figure | None = None) -> Figure:
     return fig
 
 
-def plot_forecast(base, best=None, fig: Figure | None = None, labels=("base", "")) -> Figure:
+def plot_forecast(base, best=None, fig: Figure | None = None, labels=("base", ""),
+                  sensors=None) -> Figure:
     """Measured vs predicted temperatures over the held-out period of a forecast
     (:class:`~pavement_mcmc.criticism.forecast.Forecast`): one panel per model (the base and,
-    if given, the best candidate), sensors in colour, measured as dots, predicted as lines."""
+    if given, the best candidate), sensors in colour (``sensors``: their labels, for the
+    legend), measured as dots, predicted as lines."""
     shown = [(base, labels[0] or "base")] + ([(best, labels[1] or "candidate")] if best else [])
     fig = new_figure(fig, (4.6 * len(shown) + 0.5, 3.8))
     axes = np.atleast_1d(fig.subplots(1, len(shown), sharey=True))
@@ -154,10 +172,13 @@ def plot_forecast(base, best=None, fig: Figure | None = None, labels=("base", ""
         for s in range(fc.observed.shape[1]):
             c = SENSOR_COLOURS[s % len(SENSOR_COLOURS)]
             ax.plot(th, fc.observed[:, s], ".", ms=2.5, color=c)
-            ax.plot(th, fc.predicted[:, s], "-", lw=1.0, color=c)
+            ax.plot(th, fc.predicted[:, s], "-", lw=1.0, color=c,
+                    label=None if sensors is None else sensors[s])
         ax.set_title(f"{name}: forecast RMSE {fc.rmse:.3f} °C = {fc.rmse_sigma:.2f} σ", fontsize=9)
         ax.set_xlabel("time (h)")
     axes[0].set_ylabel("temperature (°C): dots measured, lines predicted")
+    if sensors is not None:
+        axes[-1].legend(fontsize=7, title="sensor", title_fontsize=7)
     fig.suptitle(f"held-out {base.horizon:g} h after a fit to the first {base.origins[-1]:g} h "
                  f"({base.future})", fontsize=9)
     return fig

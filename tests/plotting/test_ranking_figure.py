@@ -10,8 +10,9 @@ from matplotlib.colors import to_rgba
 from pavement_mcmc.plotting.criticism import RANKING_STYLE, plot_ranking
 
 
-def _entry(name, score, detected, prior_driven):
-    return SimpleNamespace(name=name, score=score, detected=detected, prior_driven=prior_driven)
+def _entry(name, score, detected, prior_driven, forecast_gain=None):
+    return SimpleNamespace(name=name, score=score, detected=detected, prior_driven=prior_driven,
+                           forecast_gain=forecast_gain)
 
 
 def _colours(fig):
@@ -42,3 +43,22 @@ def test_no_claim_no_red():
     ranking = SimpleNamespace(entries=entries, best=None, threshold=10.0)
     colours, _ = _colours(plot_ranking(ranking))
     assert to_rgba(RANKING_STYLE["claimed"][0]) not in colours.values()
+
+
+def test_under_the_forecast_rule_the_figure_shows_the_claim_rules_gain_first():
+    """The figure drew only the in-sample S with its threshold 10 while the verdict claims by
+    the forecast gain F > 15: a claimed candidate could sit left of the drawn threshold. The
+    first panel is now F with its threshold, S beside it."""
+    import numpy as np
+
+    from pavement_mcmc.criticism.entries import FORECAST_THRESHOLD
+
+    best = _entry("two_layer", 8.0, True, False, forecast_gain=65.0)  # S below 10, F above 15
+    entries = [best, _entry("evaporation", 30.0, False, False, forecast_gain=-4.0)]
+    fig = plot_ranking(SimpleNamespace(entries=entries, best=best, threshold=10.0))
+    f_ax, s_ax = fig.axes[:2]
+    assert "forecast gain F" in f_ax.get_title() and "S" in s_ax.get_title()
+    f_line = [ln.get_xdata()[0] for ln in f_ax.lines if ln.get_linestyle() == "--"]
+    assert np.allclose(f_line, np.log10(1 + FORECAST_THRESHOLD))
+    widths = {round(p.get_y() + p.get_height() / 2): p.get_width() for p in f_ax.patches}
+    assert widths[1] > f_line[0] and widths[0] < 0  # two_layer (top row) past it, evaporation < 0
