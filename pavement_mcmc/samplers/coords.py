@@ -61,6 +61,7 @@ class Coords:
         self.linear = not np.any(self.kind)
         self.lg, self.sq = self.kind == LOG, self.kind == SQRT
         self.r = 0.0 if shift is None else np.sqrt(np.asarray(shift, float)[self.sq])
+        self.c = 0.0 if shift is None else np.asarray(shift, float)[self.lg]  # log(x + c)
 
     def to_w(self, x: np.ndarray) -> np.ndarray:
         """Working coordinates (n, d) of points ``x`` (n, d) (``x`` itself if all are linear)."""
@@ -68,7 +69,7 @@ class Coords:
             return x
         lg, sq, r = self.lg, self.sq, self.r
         w = np.array(x, float)
-        w[:, lg] = np.log(np.maximum(w[:, lg], _TINY))
+        w[:, lg] = np.log(np.maximum(w[:, lg] + self.c, _TINY))
         w[:, sq] = np.sqrt(np.maximum(w[:, sq], 0.0) + r * r) - r
         return w
 
@@ -79,7 +80,7 @@ class Coords:
             return w
         lg, sq, r = self.lg, self.sq, self.r
         x = np.array(w, float)
-        x[:, lg] = np.exp(w[:, lg])
+        x[:, lg] = np.exp(w[:, lg]) - self.c
         x[:, sq] = (w[:, sq] + r) ** 2 - r * r
         return x
 
@@ -92,8 +93,15 @@ class Coords:
         with an error of about ``1e-16 c``, and ``hi`` can come back up to that much above
         (3e-13 relative for ``hi = c / 1000``; the bounds of h are hundreds of times ``c``)."""
         lo, hi = np.array(lo, float), np.array(hi, float)
-        r = self.r
-        for mask, fwd, back, low in ((self.lg, np.log, np.exp, _LOG_TINY),
+        r, c = self.r, self.c
+        low_lg = np.log(np.maximum(np.zeros(np.count_nonzero(self.lg)) + c, _TINY))
+        for _ in range(8):  # log(x + c): the first float that maps back to x >= 0
+            under = np.exp(low_lg) - c < 0.0
+            if not under.any():
+                break
+            low_lg[under] = np.nextafter(low_lg[under], np.inf)
+        for mask, fwd, back, low in ((self.lg, lambda v: np.log(v + c), lambda v: np.exp(v) - c,
+                                      low_lg),
                                      (self.sq, lambda v: np.sqrt(v + r * r) - r,
                                       lambda v: (v + r) ** 2 - r * r, 0.0)):
             top = hi[mask]
@@ -121,7 +129,7 @@ class Coords:
                 f = f + np.sum(np.where(ws > 0.0, np.log(2.0 * ws), -np.inf), axis=1)
         ok = np.isfinite(f)[:, None]
         if lg.any():
-            g[:, lg] = np.where(ok, g[:, lg] * x[:, lg] + 1.0, 0.0)
+            g[:, lg] = np.where(ok, g[:, lg] * (x[:, lg] + self.c) + 1.0, 0.0)
         if sq.any():
             with np.errstate(divide="ignore", invalid="ignore"):
                 g[:, sq] = np.where(ok, 2.0 * ws * g[:, sq] + 1.0 / ws, 0.0)
@@ -164,13 +172,15 @@ def log_metric(cov: np.ndarray, x: np.ndarray, kind: np.ndarray, shift=None) -> 
     """
     co = Coords(kind, shift)
     lg, sq = co.lg, co.sq
-    d = np.where(lg & (x > 0.0), x, 1.0)
+    xc = np.array(x, float)
+    xc[lg] += co.c
+    d = np.where(lg & (xc > 0.0), xc, 1.0)
     s = np.sqrt(np.diag(cov)[sq])
     c = np.zeros_like(s) if shift is None else np.asarray(shift, float)[sq]
     mean = np.sqrt(c) + 0.5 * np.sqrt(np.pi * s) * erfcx(np.sqrt(c / s))
     var_sq = s + c - mean * mean
     out = cov / np.outer(d, d)
-    z = lg & ~(x > 0.0)
+    z = lg & ~(xc > 0.0)
     out[z, :] = 0.0
     out[:, z] = 0.0
     out[z, z] = np.pi**2 / 6.0

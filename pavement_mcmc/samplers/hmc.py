@@ -137,7 +137,8 @@ class HMCSampler(Sampler):
                                             z_median=z)
         self.tlog = np.where(self.options.log_positive & at0 & above, LOG,  # coordinate kinds
                              np.where(self.options.sqrt_at_zero & at0 & ~above, SQRT, 0))
-        self.shift = np.where(self.tlog == SQRT, self.options.sqrt_shift * np.sqrt(np.diag(cov)), 0.0)
+        self.shift = np.sqrt(np.diag(cov)) * np.select(  # the c of sqrt(x + c) and log(x + c)
+            [self.tlog == SQRT, self.tlog == LOG], [self.options.sqrt_shift, self.options.log_shift], 0.0)
         self._set_coords()
         self._set_metric(log_metric(cov, mode[i], self.tlog, self.shift))
         if self.tlog.any():  # over-dispersed around the mode in the working coordinates

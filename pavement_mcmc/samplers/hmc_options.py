@@ -96,12 +96,14 @@ class HMCOptions:
     log_positive: bool | str = _auto()
     sqrt_at_zero: bool | str = _auto()
     sqrt_shift: float = 0.25
+    log_shift: float = 1.0
     rough_moves: int = 0
     rough_cut: float = 0.25
 
     def __post_init__(self):
-        if not self.sqrt_shift >= 0.0:
-            raise ValueError(f"hmc option sqrt_shift must be >= 0, got {self.sqrt_shift}")
+        for k in ("sqrt_shift", "log_shift"):
+            if not getattr(self, k) >= 0.0:
+                raise ValueError(f"hmc option {k} must be >= 0, got {getattr(self, k)}")
         if not (isinstance(self.rough_moves, int) and self.rough_moves >= 0):
             raise ValueError(f"hmc option rough_moves must be an integer >= 0, got {self.rough_moves!r}")
         if not 0.0 < self.rough_cut < 1.0:
