@@ -1,9 +1,11 @@
 r"""Working coordinates of ``hmc``, one code per parameter (``kind``; the draws are stored as ``x``):
 
 - ``0``: ``w = x``;
-- ``LOG`` (the option ``log_positive``): ``w = log x``, for a parameter bounded below by 0
-  whose mode lies well above it; the density gains :math:`\sum w`, the gradient becomes
-  :math:`x\,\partial f/\partial x + 1`; a bound ``[0, hi]`` becomes ``(-inf, log hi]``;
+- ``LOG`` (the option ``log_positive``): ``w = log(x + c)`` (``c``: the ``shift``, the option
+  ``log_shift`` = 1 times the parameter's Laplace sd; ``c = 0``: ``log x``), for a parameter
+  bounded below by 0 whose mode lies well above it; the density gains :math:`\sum w`, the
+  gradient becomes :math:`(x + c)\,\partial f/\partial x + 1`; a bound ``[0, hi]`` becomes
+  ``[log c, log(hi + c)]`` (``c = 0``: ``[log 1e-300, log hi]``);
 - ``SQRT`` (the option ``sqrt_at_zero``): ``w = sqrt(x + c) - sqrt c`` (``c``: the ``shift``,
   the option ``sqrt_shift`` = 0.25 times the parameter's exponential scale at the bound), for
   a parameter bounded below by 0 whose mode sits at or near it (a night-time h): an
@@ -13,6 +15,18 @@ r"""Working coordinates of ``hmc``, one code per parameter (``kind``; the draws 
 
 A covariance of ``x`` is carried over by :func:`log_metric` (:func:`in_log` carries a density
 and its gradient). A boolean mask is read as ``LOG`` where true.
+
+``LOG``'s shift: in ``log x`` the neighbourhood of 0 is an infinite tail, as long in the metric's
+units as the mode is far in sd; a parameter whose posterior keeps some mass near 0 lets a
+chain wander down it and come back by a random walk at the metric's scale. On the Göttingen
+72-h window (``runs/grass_plain.toml``, plain log, seed 1) a chain went to h_52 ~ 0-2 (mode 45,
+sd 16; a ridge of equal density through its neighbours) and stayed there ~80 steps after the
+adaptation: split-R-hat alone kept the run going from step 440 to 832. ``log(x + c)`` with
+``c`` one Laplace sd keeps 0 at ``(z + 1) log(z + 1)`` metric sd from a mode ``z`` sd above it
+and is ``log x`` for ``z >> 1``. To the stopping rule (seeds 1 / 2 / 3, gradients): the
+Göttingen window 93k / 94k / 100k instead of 208k / 158k / 185k (steps 546 / 546 / 628 instead of
+832 / 723 / 832), on a toy with 18 % of the mass near 0 (``tests/samplers/test_hmc_shifted_log.py``)
+18 instead of 40 gradients per effective draw.
 
 ``LOG``: a parameter whose mode is more than one Laplace sd above 0 (``hmc``); the others stay
 linear (a night h at 0 in ``log`` made the step size fall to 0.017, 64 leapfrog steps). With a
@@ -162,7 +176,7 @@ def in_log(f: np.ndarray, g: np.ndarray, w: np.ndarray, x: np.ndarray, kind: np.
 def log_metric(cov: np.ndarray, x: np.ndarray, kind: np.ndarray, shift=None) -> np.ndarray:
     """The covariance ``cov`` of ``x`` carried to the working coordinates.
 
-    ``LOG``: at a mode inside the bounds, the delta method (``cov_ij / (x_i x_j)``); at a mode
+    ``LOG``: at a mode inside the bounds, the delta method (``cov_ij / ((x_i + c_i)(x_j + c_j))``); at a mode
     on the bound 0 the posterior is close to an exponential (:func:`.target.bounded_laplace_cov`),
     and the log of an exponential variable has the variance pi^2/6 whatever its scale: that,
     and no correlations. ``SQRT``: for an exponential variable ``x`` of scale ``s`` (taken as

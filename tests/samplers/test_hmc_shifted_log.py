@@ -114,3 +114,34 @@ def test_shifted_log_coordinates_cross_to_the_bound_cheaply_and_exactly(shift, m
     assert per_draw < max_per_draw, per_draw
     if shift == 0.0:  # what the shift gains: the plain log needs more than 30
         assert per_draw > 30.0, per_draw
+
+
+def test_a_chain_stranded_by_its_start_rejoins_the_others_before_the_metric_window():
+    """A chain placed far in a log coordinate's right tail (p0 at 3x its mode, ~70 sd out,
+    where the curvature in ``log p0`` is ~9x the mode's) rejects every trajectory at the step
+    size the others tune; at step ``metric_skip`` it continues from another chain's state
+    (:mod:`pavement_mcmc.samplers.strays`), so the first metric window pools no stuck draws
+    and every chain ends the adaptation in the bulk. Chains in the bulk are never moved."""
+    from test_samplers import LinearGaussian
+
+    from pavement_mcmc.posterior import find_map
+    from pavement_mcmc.samplers.strays import strays
+
+    post = LinearGaussian(seed=2, d=3, lower=[0.0, -np.inf, -np.inf])
+    s = get_sampler("hmc", post, n_chains=8, seed=4, options={"log_positive": True})
+    s.prepare(laplace=find_map(post))
+    assert list(s.tlog) == [LOG, 0, 0]
+    far = s.theta[0].copy()
+    far[0] = 10.0 * post.mean[0]
+    s.theta[0] = far
+    s.f, s.g, s.loglik, s.blobs = s._value_grad_w(s.coords.to_w(s.theta[:, s.idx]))
+    s.logp = s._joint_logp(s.theta)
+    assert strays(s.f, 3).tolist() == [True] + [False] * 7  # the others: within 10 of the median
+    b = s.step(150, adapt=True)
+    sd0 = np.sqrt(post.cov[0, 0])
+    assert np.all(np.abs(b.chain[-1, :, 0] - post.mean[0]) < 5 * sd0), b.chain[-1, :, 0]
+    assert np.all(np.abs(b.chain[20:, :, 0] - post.mean[0]) < 6 * sd0)  # the first window's draws
+    rng = np.random.default_rng(0)  # a Gaussian's bulk: never a stray (chi2_d / 2 spread)
+    for d in (3, 30, 150):
+        f = -0.5 * rng.chisquare(d, size=(200, 16))
+        assert not any(strays(row, d).any() for row in f)
