@@ -1,9 +1,11 @@
 r"""Working coordinates of ``hmc``, one code per parameter (``kind``; the draws are stored as ``x``):
 
 - ``0``: ``w = x``;
-- ``LOG`` (the option ``log_positive``): ``w = log x``, for a parameter bounded below by 0
-  whose mode lies well above it; the density gains :math:`\sum w`, the gradient becomes
-  :math:`x\,\partial f/\partial x + 1`; a bound ``[0, hi]`` becomes ``(-inf, log hi]``;
+- ``LOG`` (the option ``log_positive``): ``w = log(x + c)`` (``c``: the ``shift``, the option
+  ``log_shift`` = 1 times the parameter's Laplace sd; ``c = 0``: ``log x``), for a parameter
+  bounded below by 0 whose mode lies well above it; the density gains :math:`\sum w`, the
+  gradient becomes :math:`(x + c)\,\partial f/\partial x + 1`; a bound ``[0, hi]`` becomes
+  ``[log c, log(hi + c)]`` (``c = 0``: ``[log 1e-300, log hi]``);
 - ``SQRT`` (the option ``sqrt_at_zero``): ``w = sqrt(x + c) - sqrt c`` (``c``: the ``shift``,
   the option ``sqrt_shift`` = 0.25 times the parameter's exponential scale at the bound), for
   a parameter bounded below by 0 whose mode sits at or near it (a night-time h): an
@@ -13,6 +15,18 @@ r"""Working coordinates of ``hmc``, one code per parameter (``kind``; the draws 
 
 A covariance of ``x`` is carried over by :func:`log_metric` (:func:`in_log` carries a density
 and its gradient). A boolean mask is read as ``LOG`` where true.
+
+``LOG``'s shift: in ``log x`` the neighbourhood of 0 is an infinite tail, as long in the metric's
+units as the mode is far in sd; a parameter whose posterior keeps some mass near 0 lets a
+chain wander down it and come back by a random walk at the metric's scale. On the Göttingen
+72-h window (``runs/grass_plain.toml``, plain log, seed 1) a chain went to h_52 ~ 0-2 (mode 45,
+sd 16; a ridge of equal density through its neighbours) and stayed there ~80 steps after the
+adaptation: split-R-hat alone kept the run going from step 440 to 832. ``log(x + c)`` with
+``c`` one Laplace sd keeps 0 at ``(z + 1) log(z + 1)`` metric sd from a mode ``z`` sd above it
+and is ``log x`` for ``z >> 1``. To the stopping rule (seeds 1 / 2 / 3, gradients): the
+Göttingen window 93k / 94k / 100k instead of 208k / 158k / 185k (steps 546 / 546 / 628 instead of
+832 / 723 / 832), on a toy with 18 % of the mass near 0 (``tests/samplers/test_hmc_shifted_log.py``)
+18 instead of 40 gradients per effective draw.
 
 ``LOG``: a parameter whose mode is more than one Laplace sd above 0 (``hmc``); the others stay
 linear (a night h at 0 in ``log`` made the step size fall to 0.017, 64 leapfrog steps). With a
@@ -61,6 +75,7 @@ class Coords:
         self.linear = not np.any(self.kind)
         self.lg, self.sq = self.kind == LOG, self.kind == SQRT
         self.r = 0.0 if shift is None else np.sqrt(np.asarray(shift, float)[self.sq])
+        self.c = 0.0 if shift is None else np.asarray(shift, float)[self.lg]  # log(x + c)
 
     def to_w(self, x: np.ndarray) -> np.ndarray:
         """Working coordinates (n, d) of points ``x`` (n, d) (``x`` itself if all are linear)."""
@@ -68,7 +83,7 @@ class Coords:
             return x
         lg, sq, r = self.lg, self.sq, self.r
         w = np.array(x, float)
-        w[:, lg] = np.log(np.maximum(w[:, lg], _TINY))
+        w[:, lg] = np.log(np.maximum(w[:, lg] + self.c, _TINY))
         w[:, sq] = np.sqrt(np.maximum(w[:, sq], 0.0) + r * r) - r
         return w
 
@@ -79,7 +94,7 @@ class Coords:
             return w
         lg, sq, r = self.lg, self.sq, self.r
         x = np.array(w, float)
-        x[:, lg] = np.exp(w[:, lg])
+        x[:, lg] = np.exp(w[:, lg]) - self.c
         x[:, sq] = (w[:, sq] + r) ** 2 - r * r
         return x
 
@@ -92,8 +107,15 @@ class Coords:
         with an error of about ``1e-16 c``, and ``hi`` can come back up to that much above
         (3e-13 relative for ``hi = c / 1000``; the bounds of h are hundreds of times ``c``)."""
         lo, hi = np.array(lo, float), np.array(hi, float)
-        r = self.r
-        for mask, fwd, back, low in ((self.lg, np.log, np.exp, _LOG_TINY),
+        r, c = self.r, self.c
+        low_lg = np.log(np.maximum(np.zeros(np.count_nonzero(self.lg)) + c, _TINY))
+        for _ in range(8):  # log(x + c): the first float that maps back to x >= 0
+            under = np.exp(low_lg) - c < 0.0
+            if not under.any():
+                break
+            low_lg[under] = np.nextafter(low_lg[under], np.inf)
+        for mask, fwd, back, low in ((self.lg, lambda v: np.log(v + c), lambda v: np.exp(v) - c,
+                                      low_lg),
                                      (self.sq, lambda v: np.sqrt(v + r * r) - r,
                                       lambda v: (v + r) ** 2 - r * r, 0.0)):
             top = hi[mask]
@@ -121,7 +143,7 @@ class Coords:
                 f = f + np.sum(np.where(ws > 0.0, np.log(2.0 * ws), -np.inf), axis=1)
         ok = np.isfinite(f)[:, None]
         if lg.any():
-            g[:, lg] = np.where(ok, g[:, lg] * x[:, lg] + 1.0, 0.0)
+            g[:, lg] = np.where(ok, g[:, lg] * (x[:, lg] + self.c) + 1.0, 0.0)
         if sq.any():
             with np.errstate(divide="ignore", invalid="ignore"):
                 g[:, sq] = np.where(ok, 2.0 * ws * g[:, sq] + 1.0 / ws, 0.0)
@@ -154,7 +176,7 @@ def in_log(f: np.ndarray, g: np.ndarray, w: np.ndarray, x: np.ndarray, kind: np.
 def log_metric(cov: np.ndarray, x: np.ndarray, kind: np.ndarray, shift=None) -> np.ndarray:
     """The covariance ``cov`` of ``x`` carried to the working coordinates.
 
-    ``LOG``: at a mode inside the bounds, the delta method (``cov_ij / (x_i x_j)``); at a mode
+    ``LOG``: at a mode inside the bounds, the delta method (``cov_ij / ((x_i + c_i)(x_j + c_j))``); at a mode
     on the bound 0 the posterior is close to an exponential (:func:`.target.bounded_laplace_cov`),
     and the log of an exponential variable has the variance pi^2/6 whatever its scale: that,
     and no correlations. ``SQRT``: for an exponential variable ``x`` of scale ``s`` (taken as
@@ -164,13 +186,15 @@ def log_metric(cov: np.ndarray, x: np.ndarray, kind: np.ndarray, shift=None) -> 
     """
     co = Coords(kind, shift)
     lg, sq = co.lg, co.sq
-    d = np.where(lg & (x > 0.0), x, 1.0)
+    xc = np.array(x, float)
+    xc[lg] += co.c
+    d = np.where(lg & (xc > 0.0), xc, 1.0)
     s = np.sqrt(np.diag(cov)[sq])
     c = np.zeros_like(s) if shift is None else np.asarray(shift, float)[sq]
     mean = np.sqrt(c) + 0.5 * np.sqrt(np.pi * s) * erfcx(np.sqrt(c / s))
     var_sq = s + c - mean * mean
     out = cov / np.outer(d, d)
-    z = lg & ~(x > 0.0)
+    z = lg & ~(xc > 0.0)
     out[z, :] = 0.0
     out[:, z] = 0.0
     out[z, z] = np.pi**2 / 6.0

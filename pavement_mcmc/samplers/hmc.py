@@ -43,14 +43,12 @@ Metropolis moves scaling h's high-frequency part (:mod:`.rough`; one solve each,
 gradient for each chain that moved), which the trajectories move slowly; dropped at the end of
 adaptation if their step was tuned too small to matter (:meth:`.rough.RoughScale.useful`).
 
-Working coordinates (``log_positive``: ``log x`` for parameters bounded at 0 whose mode lies
-well above it; ``sqrt_at_zero``: a shifted ``sqrt x`` for those piled against 0), what they
-do and what they cost on the Göttingen window and on Case C: :mod:`.coords`. Unless a case sets
-them, both and ``metric_windows`` are chosen from the problem at the MAP (:mod:`.hmc_options`).
+Working coordinates (``log_positive``: ``log(x + c)``, ``c`` a Laplace sd, for parameters bounded
+at 0 with their mode well above it; ``sqrt_at_zero``: a shifted ``sqrt x`` for those at 0):
+:mod:`.coords`, chosen with ``metric_windows`` at the MAP (:mod:`.hmc_options`). Strays: :mod:`.strays`.
 
-A step costs ``n_leapfrog`` gradient evaluations per chain; :attr:`Block.n_evals` counts them
-(each is one solve and one adjoint sweep, or ``2 d + 1`` solves by central differences for models
-without an adjoint).
+A step costs ``n_leapfrog`` gradient evaluations per chain (:attr:`Block.n_evals`; each one
+solve and one adjoint sweep, or ``2 d + 1`` solves by central differences without an adjoint).
 """
 
 from __future__ import annotations
@@ -64,6 +62,7 @@ from .coords import LOG, SQRT, Coords, log_metric
 from .hmc_options import AUTO, LEGACY, HMCOptions, resolve, restored
 from .reflect import reflect_drift
 from .rough import RoughScale, scale_moves
+from .strays import rejoin, strays
 from .target import MarginalTarget, bounded_laplace_cov, cholesky_of, draws_around
 
 #: dual-averaging constants (Hoffman & Gelman 2014, section 3.2)
@@ -96,12 +95,11 @@ class HMCSampler(Sampler):
         return gmrf_of(self.posterior.space) is None
 
     def adapt_length(self) -> int:
-        """The last metric window's end and 50 steps for the step size to settle after it."""
+        """The last metric window's end and 50 steps for the step size to settle after it
+        (``"auto"`` windows, not yet resolved by :meth:`prepare`: as :data:`LEGACY`)."""
         o = self.options
         windows = LEGACY["metric_windows"] if o.metric_windows == AUTO else o.metric_windows
-        if not o.adapt_metric or windows < 1:  # ("auto": not yet resolved by prepare)
-            return 150
-        return max(150, o.metric_at * 2 ** (windows - 1) + 50)
+        return 150 if not o.adapt_metric or windows < 1 else max(150, o.metric_at * 2 ** (windows - 1) + 50)
 
     # -- preparation -------------------------------------------------------------------------
     def prepare(self, theta0=None, laplace=None) -> None:
@@ -137,7 +135,8 @@ class HMCSampler(Sampler):
                                             z_median=z)
         self.tlog = np.where(self.options.log_positive & at0 & above, LOG,  # coordinate kinds
                              np.where(self.options.sqrt_at_zero & at0 & ~above, SQRT, 0))
-        self.shift = np.where(self.tlog == SQRT, self.options.sqrt_shift * np.sqrt(np.diag(cov)), 0.0)
+        self.shift = np.sqrt(np.diag(cov)) * np.select(  # the c of sqrt(x + c) and log(x + c)
+            [self.tlog == SQRT, self.tlog == LOG], [self.options.sqrt_shift, self.options.log_shift], 0.0)
         self._set_coords()
         self._set_metric(log_metric(cov, mode[i], self.tlog, self.shift))
         if self.tlog.any():  # over-dispersed around the mode in the working coordinates
@@ -313,6 +312,9 @@ class HMCSampler(Sampler):
             self.logp = self._joint_logp(self.theta)
             if adapt:
                 self._adapt(float(np.mean(np.exp(np.minimum(log_a, 0.0)))))
+                if self.k_adapt == self.options.metric_skip:  # chains stranded by their start
+                    rejoin(self.rng, strays(self.f, self.idx.size), self.theta, self.f, self.g, self.loglik,
+                           self.blobs, self.logp)
             rows.append((self.theta.copy(), self.logp.copy(), self.blobs.copy(), acc, n_evals))
         return Block.stack(rows)
 

@@ -71,14 +71,16 @@ class HMCOptions:
         ``metric_at * 2**k`` and pools the draws since the previous window's end (the first one
         those after ``metric_skip``). ``"auto"`` (default): 2, or 3 for many parameters
         (:func:`resolve`).
-    log_positive : sample ``log x`` instead of ``x`` for every parameter bounded below by 0
-        whose mode lies more than one Laplace sd above 0 (h pieces away from 0, a layer's
-        resistance); the draws are stored as ``x``. ``"auto"`` (default): on when many
+    log_positive : sample ``log(x + c)`` (``log_shift``) instead of ``x`` for every parameter
+        bounded below by 0 whose mode lies more than one Laplace sd above 0 (h pieces away from
+        0, a layer's resistance); the draws are stored as ``x``. ``"auto"`` (default): on when many
         parameters are piled against 0 (:func:`resolve`; see :mod:`.coords`).
     sqrt_at_zero : sample ``sqrt(x + c) - sqrt c`` instead of ``x`` for every parameter bounded
         below by 0 whose mode lies within one Laplace sd of 0 (night-time h against their
         bound). ``"auto"`` (default): as ``log_positive``.
     sqrt_shift : that ``c`` in units of the parameter's exponential scale at the bound (0: ``sqrt x``).
+    log_shift : ``log_positive`` samples ``log(x + c)``, ``c`` this many Laplace sd of the
+        parameter (0: ``log x``, whose infinite tail towards 0 traps chains: :mod:`.coords`).
     rough_moves : with a free smoothness precision (Case C), scale moves of h's rough part after
         each trajectory (:mod:`.rough`; one solve each, and one gradient for a chain that moved);
         0: none.
@@ -96,12 +98,14 @@ class HMCOptions:
     log_positive: bool | str = _auto()
     sqrt_at_zero: bool | str = _auto()
     sqrt_shift: float = 0.25
+    log_shift: float = 1.0
     rough_moves: int = 0
     rough_cut: float = 0.25
 
     def __post_init__(self):
-        if not self.sqrt_shift >= 0.0:
-            raise ValueError(f"hmc option sqrt_shift must be >= 0, got {self.sqrt_shift}")
+        for k in ("sqrt_shift", "log_shift"):
+            if not getattr(self, k) >= 0.0:
+                raise ValueError(f"hmc option {k} must be >= 0, got {getattr(self, k)}")
         if not (isinstance(self.rough_moves, int) and self.rough_moves >= 0):
             raise ValueError(f"hmc option rough_moves must be an integer >= 0, got {self.rough_moves!r}")
         if not 0.0 < self.rough_cut < 1.0:
