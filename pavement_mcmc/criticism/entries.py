@@ -86,6 +86,10 @@ PARTIAL = 0.5
 #: 10 gave 3 of 40 there and 4 of 80 on all, every one ``evaporation`` at F 10-13.4
 FORECAST_THRESHOLD = 15.0
 
+#: also credit ground and sensor candidates by the ground forecast (:mod:`.ground`: the deeper
+#: sensors predicted from the measured top sensor) at the same margin; see docs/VALIDATION.md
+GROUND_FORECAST = False
+
 
 #: the surface energy balance as a candidate (:func:`~.ranking.energy_candidate`): one
 #: Priestley-Taylor coefficient for the window, so its forecast needs no rule for a day it
@@ -185,6 +189,8 @@ class Entry:
         the base forecast's excess error it removes (None without the forecast rule).
     plugin_gain : the gain by the plug-in density with the measurement sd
         (:func:`~.forecast.plugin_gain`), a supporting figure.
+    ground_gain : its ground-forecast gain :math:`F^g_c` (:mod:`.ground`; ground and sensor
+        candidates with the ground forecast on, else None); ``ground_rmse_sigma`` its RMSE.
     threshold, data_threshold : the claim thresholds.
     fit : the refit (not serialised).
     """
@@ -213,16 +219,31 @@ class Entry:
     forecast_share: float | None = None
     forecast_rmse_sigma: float | None = None
     plugin_gain: float | None = None
+    ground_gain: float | None = None
+    ground_rmse_sigma: float | None = None
     threshold: float = THRESHOLD
     data_threshold: float = DATA_THRESHOLD
     fit: Fit | None = field(default=None, repr=False)
     forecast: object | None = field(default=None, repr=False)
 
     @property
+    def claim_gain(self) -> float | None:
+        """The gain the forecast rule reads: :attr:`forecast_gain`, or the ground forecast's
+        where it is larger (:attr:`by_ground`)."""
+        if self.ground_gain is None or self.forecast_gain is None:
+            return self.forecast_gain
+        return max(self.forecast_gain, self.ground_gain)
+
+    @property
+    def by_ground(self) -> bool:
+        """The ground forecast (:mod:`.ground`) credits it more than the forcing forecast."""
+        return self.ground_gain is not None and self.ground_gain > self.forecast_gain
+
+    @property
     def forecasts_better(self) -> bool:
-        """The forecast rule's test (module doc): the gain passes :data:`FORECAST_THRESHOLD`
-        and the in-sample fit is not worse."""
-        return (self.forecast_gain is not None and self.forecast_gain > FORECAST_THRESHOLD
+        """The forecast rule's test (module doc): the gain (:attr:`claim_gain`) passes
+        :data:`FORECAST_THRESHOLD` and the in-sample fit is not worse."""
+        return (self.forecast_gain is not None and self.claim_gain > FORECAST_THRESHOLD
                 and self.score >= -self.threshold)
 
     @property

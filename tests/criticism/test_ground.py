@@ -13,6 +13,7 @@ from pavement_mcmc.criticism.campaign import _true_values
 from pavement_mcmc.criticism.fitting import refit
 from pavement_mcmc.criticism.forecast import forecast
 from pavement_mcmc.criticism.ground import ground_errors, ground_forecast, ground_gain, ground_model
+from pavement_mcmc.criticism.ranking import rank_missing_effects
 from pavement_mcmc.data import load_case
 from pavement_mcmc.posterior import build_problem
 from pavement_mcmc.synthetic.corpus import forecast_twins, write_twin
@@ -73,3 +74,21 @@ def test_ground_variants_of_the_claim_rule_read_G_only_for_ground_candidates():
     assert gain(rec["entries"]["wind_convection"], "either") == 12.0  # a surface effect: F
     with pytest.raises(ValueError, match="unknown ground rule"):
         gain(rec["entries"]["two_layer"], "both")
+
+
+def test_ranking_claims_a_deeper_sensor_bias_by_the_ground_forecast(tmp_path):
+    """A +0.5 degC bias on the middle sensor, 40 h: the forcing forecast cannot see it under the
+    unknown future h (F ~ 0, no claim), the ground forecast credits it and the verdict says so;
+    a surface candidate gets no ground gain."""
+    cfg = _case(tmp_path, "sensor_bias", hours=40.0)
+    pb = build_problem(cfg)
+    start = refit(pb).values()
+    cands = ["sensor_bias", "two_layer", "wind_convection"]
+    plain = rank_missing_effects(pb, start, cands, forecast={"ground": False})
+    assert plain.best is None
+    rk = rank_missing_effects(pb, start, cands, forecast={"ground": True})
+    e = {x.name: x for x in rk.entries}
+    assert rk.best is not None and rk.best.name == "sensor_bias" and rk.best.by_ground
+    assert e["sensor_bias"].forecast_gain < 15.0 < e["sensor_bias"].ground_gain
+    assert e["wind_convection"].ground_gain is None
+    assert "from the measured top sensor" in rk.verdict and "ground gain G" in rk.verdict
