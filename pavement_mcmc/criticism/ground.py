@@ -28,13 +28,24 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from ..physics import Model
+from ..physics import Extension, Model
 from ..solver.grid import Grid
 from .forecast import split_rows
 from .residuals import pooled_lag1
 
-#: where a candidate acts (:func:`~.ranking._hook`) for the ground forecast to credit it
+#: where a candidate acts (:func:`where_acts`) for the ground forecast to credit it
 GROUND_HOOKS = ("material", "observe")
+
+
+def where_acts(ext) -> str:
+    """Where a candidate acts: ``"surface"`` (the surface balance or h), ``"material"``,
+    ``"observe"``, or ``"h"`` for ``None`` (a finer h(t))."""
+    if ext is None:
+        return "h"
+    t = type(ext)
+    if t.surface is not Extension.surface or ext.replaces_h:
+        return "surface"
+    return "material" if t.material is not Extension.material else "observe"
 
 
 @dataclass
@@ -59,9 +70,7 @@ class GroundForecast:
 
 
 def _ground_extensions(model) -> list:
-    from .ranking import _hook  # the ranking's notion of where an extension acts
-
-    return [e for e in model.extensions if _hook(e) in GROUND_HOOKS]
+    return [e for e in model.extensions if where_acts(e) in GROUND_HOOKS]
 
 
 def ground_model(model, values: dict[str, float]) -> tuple[Model, dict[str, np.ndarray]]:

@@ -52,7 +52,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..physics import Extension, candidate_names, get_extension
+from ..physics import candidate_names, get_extension
 from ..physics.hbasis import FINER_H
 from ..physics.materials import check_values, declared_material
 from .candidates import finer_h_spec, fit_extension, h_spec_of, h_start, variant
@@ -73,7 +73,7 @@ from .entries import (
 from .fitting import Fit, refit
 from .forecast import forecast as forecast_skill
 from .forecast import forecast_gain, forecast_share, plugin_gain
-from .ground import GROUND_HOOKS, ground_forecast, ground_gain
+from .ground import GROUND_HOOKS, ground_forecast, ground_gain, where_acts
 from .holdout import leave_one_sensor_out
 from .residuals import ResidualReport, analyse_point, noise_like, plain_signals
 from .unexplained import unexplained
@@ -101,15 +101,6 @@ def _impossible(fit: Fit, declared) -> list:
     """Alarms on kappa, C or kappa/C of ``fit`` (outside every ground material)."""
     v = fit.values()
     return [f for f in check_values(v.get("kappa"), v.get("C"), None, declared) if f.level == "alarm"]
-
-
-def _hook(ext) -> str:
-    if ext is None:
-        return "h"
-    t = type(ext)
-    if t.surface is not Extension.surface or ext.replaces_h:
-        return "surface"
-    return "material" if t.material is not Extension.material else "observe"
 
 
 def _points_at(entries: list[Entry], energy, threshold: float) -> dict | None:
@@ -162,7 +153,7 @@ def _entry(name, desc, ref: Fit, cand: Fit, ext, patterns, base_impossible, decl
         values={n: vals[n] for n in own},
         at_bound=at_bounds(cand, own, None if ext is None else ext.null_values(cand.problem.meas)),
         excess_share=excess_share(ref.rmse_sigma, cand.rmse_sigma),
-        hook=_hook(ext),
+        hook=where_acts(ext),
         profile=name in PER_SENSOR and coherent_profile({n: vals[n] for n in own}),
         restores_plausibility=bool(base_impossible) and not _impossible(cand, declared),
         fit=cand,
@@ -269,7 +260,7 @@ def rank_missing_effects(
         except ValueError as err:
             skipped[name] = str(err)
             continue
-        if problem.model.top_measured and _hook(ext) == "surface":
+        if problem.model.top_measured and where_acts(ext) == "surface":
             skipped[name] = "acts at the surface, which the measured top boundary replaces"
             continue
         fit = fit_extension(problem, base, name, h_spec)
