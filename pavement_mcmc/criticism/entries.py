@@ -34,7 +34,10 @@ alone, and a candidate is claimable when its forecast gain :math:`F_c`
 (:math:`S_c \ge -` :data:`THRESHOLD`: the in-sample fit, charged for the parameters it adds and
 credited for those it removes, is no worse); :math:`D_c` stays a supporting figure. "Partly"
 then needs the forecast to remove :data:`PARTIAL` of the base forecast's excess error (and the
-in-sample misfit not to rise).
+in-sample misfit not to rise). With :data:`GROUND_FORECAST`, a candidate acting on the ground or
+a sensor (``hook`` ``"material"`` or ``"observe"``) is also credited by its **ground forecast**
+gain (:mod:`.ground`: the deeper sensors from the measured top sensor, no future h) at the same
+margin; the larger of the two gains ranks it (:attr:`Entry.claim_gain`).
 
 One exception (the real-data issue): when the base fit is **physically impossible** (kappa or C
 outside every ground material, :func:`~pavement_mcmc.physics.materials.check_values`), a
