@@ -11,12 +11,16 @@ covers every kind. Each twin is diagnosed with the forecast rule
 (:func:`~pavement_mcmc.criticism.campaign.diagnose_twin`) and its record appended to ``--out``
 (JSON lines; twins already there are skipped, so a killed run resumes); at the end the rates
 (:func:`~pavement_mcmc.criticism.campaign.rates`) with their n, and the forecast gains of the
-candidates on clean twins (the margin ``FORECAST_THRESHOLD`` must clear them).
+candidates on clean twins (the margin ``FORECAST_THRESHOLD`` must clear them). Each candidate's
+record also holds its ground-forecast gain ``G`` (:mod:`pavement_mcmc.criticism.ground`), and
+``--effects`` restricts the catalogue effects hidden.
 
 ``--report``: no twin is run; the margin's calibration from the records already in ``--out``
 (:func:`~pavement_mcmc.criticism.calibration.calibrate`: chosen on the clean twins of even
 seed, measured on the odd ones; every rate with its exact 95 % interval) and the distribution
-of the base model's forecast RMSE over the truth-parameter forecast on clean twins.
+of the base model's forecast RMSE over the truth-parameter forecast on clean twins; with
+ground gains in the records, the same calibration for each ground variant of the rule
+(``GROUND_RULES`` of ``criticism/calibration.py``).
 
 ``--rules``: on the clean twins only, the base model's forecast RMSE under each future rule of
 h(t) (``diurnal``, ``persist``) against the truth-parameter forecast under the same rule, and
@@ -43,8 +47,9 @@ sys.path.insert(0, str(ROOT))
 
 import numpy as np  # noqa: E402
 
-from pavement_mcmc.criticism.calibration import calibrate, rates_at  # noqa: E402
+from pavement_mcmc.criticism.calibration import GROUND_RULES, calibrate, rates_at  # noqa: E402
 from pavement_mcmc.criticism.campaign import (  # noqa: E402
+    FORECAST_CATALOGUE,
     diagnose_twin,
     forecast_campaign_twins,
     rates,
@@ -95,6 +100,8 @@ def main(argv=None) -> int:
                          "docs/campaign/ holds the two campaigns behind docs/VALIDATION.md)")
     ap.add_argument("--seed-offset", type=int, default=0,
                     help="shift every twin's seed (1000: a fresh campaign that replicates the rates)")
+    ap.add_argument("--effects", nargs="+", default=list(FORECAST_CATALOGUE),
+                    help="the catalogue effects to hide (default: all of the campaign's)")
     args = ap.parse_args(argv)
     workdir = Path(tempfile.mkdtemp(prefix="forecast_campaign_"))
     if args.rules:
@@ -110,7 +117,8 @@ def main(argv=None) -> int:
         report([r for p in args.records for r in _load(Path(p))] if args.records else records)
         return 0
     for tw in forecast_campaign_twins(args.clean, args.per_effect, args.off, hours=args.hours,
-                                      input_sigma=args.input_sigma, seed_offset=args.seed_offset):
+                                      input_sigma=args.input_sigma, seed_offset=args.seed_offset,
+                                      effects=args.effects):
         if tw.name in done:
             continue
         t0 = time.process_time()
@@ -138,6 +146,12 @@ def report(records: list[dict]) -> None:
     print(json.dumps(calibrate(records), indent=1))
     print("the in-sample variant (claimed when nothing forecasts better; measured, not adopted):")
     print(json.dumps(rates_at(records, FORECAST_THRESHOLD, insample=True), indent=1))
+    if any("G" in e for r in records for e in r.get("entries", {}).values()):
+        for g in GROUND_RULES:  # the rule with the ground forecast (criticism/ground.py)
+            print(f"with the ground forecast ({g!r}), calibrated like the forcing rule:")
+            print(json.dumps(calibrate(records, ground=g), indent=1))
+            print(f"... at the shipped margin {FORECAST_THRESHOLD:g}:")
+            print(json.dumps(rates_at(records, FORECAST_THRESHOLD, ground=g), indent=1))
     clean = [r for r in records if r["category"] == "clean"]
     ratio = np.array([r["forecast_ratio"] for r in clean if "forecast_ratio" in r])
     if ratio.size:

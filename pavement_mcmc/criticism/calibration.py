@@ -10,6 +10,13 @@ other (:func:`calibrate`), each rate with its exact binomial interval
 
 :func:`claim_at` keeps the record's own choice among look-alikes (the leave-one-sensor-out
 tie-break between candidates of almost equal gain) when that candidate is still claimable.
+
+``ground``: the rule with the ground forecast (:mod:`.ground`) as well, for records that hold
+its gain ``G``: ``"either"`` credits a ground or sensor candidate when its forcing gain ``F`` or
+its ground gain ``G`` passes the margin (gain: the larger); ``"only"`` reads ``G`` alone for
+those candidates. Surface candidates keep ``F`` in both. One margin for both forecasts, chosen
+by :func:`calibrate` on clean twins like the forcing rule's (two tests: the false claims of
+both count).
 """
 
 from __future__ import annotations
@@ -37,8 +44,22 @@ def binomial_interval(k: int, n: int, level: float = 0.95) -> tuple[float, float
     return lo, hi
 
 
-def _forecasts_better(e: dict, margin: float) -> bool:
-    return e["F"] > margin and e["S"] >= -THRESHOLD and not e["at_bound"] and not e["profile"]
+#: the ground-forecast variants of the rule (module doc)
+GROUND_RULES = ("either", "only")
+
+
+def gain(e: dict, ground: str | None = None) -> float:
+    """The gain the rule reads of candidate record ``e`` (module doc: ``ground``)."""
+    if ground is None or not e.get("ground") or "G" not in e:
+        return e["F"]
+    if ground not in GROUND_RULES:
+        raise ValueError(f"unknown ground rule {ground!r}; valid: {', '.join(GROUND_RULES)}")
+    return e["G"] if ground == "only" else max(e["F"], e["G"])
+
+
+def _forecasts_better(e: dict, margin: float, ground: str | None = None) -> bool:
+    return (gain(e, ground) > margin and e["S"] >= -THRESHOLD and not e["at_bound"]
+            and not e["profile"])
 
 
 def _plausibility(e: dict) -> bool:
@@ -58,7 +79,8 @@ def _insample(e: dict) -> bool:
             and not e["at_bound"] and not e["profile"] and (e["explains"] or e["partial"]))
 
 
-def claim_at(record: dict, margin: float, insample: bool = False) -> str | None:
+def claim_at(record: dict, margin: float, insample: bool = False,
+             ground: str | None = None) -> str | None:
     """The candidate the forecast rule claims in ``record`` with margin ``margin`` (None: no
     claim): the largest gain ``F > margin`` among candidates that fit no worse in sample (``S
     >= -THRESHOLD``), with no own parameter at a bound and no coherent offset profile, kept if
@@ -68,14 +90,14 @@ def claim_at(record: dict, margin: float, insample: bool = False) -> str | None:
     ``insample``: the variant measured, not adopted (docs/VALIDATION.md section 4): without a
     forecast claim, the candidate of largest in-sample score that passes the in-sample rule and
     forecasts no worse is claimed before a plausibility claim."""
-    ok = {n: e for n, e in record["entries"].items() if _forecasts_better(e, margin)}
+    ok = {n: e for n, e in record["entries"].items() if _forecasts_better(e, margin, ground)}
     if not ok and insample:
         ins = {n: e for n, e in record["entries"].items() if _insample(e)}
         if ins:
             return max(ins, key=lambda n: ins[n]["S"])
     if not ok:  # a plausibility claim (an impossible base fit brought into range) decides
         return next((n for n, e in record["entries"].items() if _plausibility(e)), None)
-    name = max(ok, key=lambda n: ok[n]["F"])
+    name = max(ok, key=lambda n: gain(ok[n], ground))
     if record.get("claimed") in ok and record["claimed"] in record.get("lookalikes", ()):
         name = record["claimed"]  # the tie-break's choice among look-alikes
     return name if ok[name]["explains"] or ok[name]["partial"] else None
@@ -86,12 +108,13 @@ def _rate(k: int, n: int) -> dict:
     return {"k": k, "n": n, "ci95": [round(lo, 3), round(hi, 3)]}
 
 
-def rates_at(records: list[dict], margin: float, insample: bool = False) -> dict:
+def rates_at(records: list[dict], margin: float, insample: bool = False,
+             ground: str | None = None) -> dict:
     """False claims on clean twins, claims of the hidden effect per catalogue effect and for the
     surface family, and off-catalogue twins without a catalogue claim, at ``margin`` (and with
     the in-sample variant of :func:`claim_at` when ``insample``)."""
     def claim(r):
-        return claim_at(r, margin, insample)
+        return claim_at(r, margin, insample, ground)
 
     by = {c: [r for r in records if r["category"] == c]
           for c in ("clean", "catalogue", "off_catalogue")}
@@ -114,7 +137,8 @@ def rates_at(records: list[dict], margin: float, insample: bool = False) -> dict
     }
 
 
-def calibrate(records: list[dict], margins=MARGINS, max_false: float = 1 / 20) -> dict:
+def calibrate(records: list[dict], margins=MARGINS, max_false: float = 1 / 20,
+              ground: str | None = None) -> dict:
     """Choose the margin on the clean twins of even seed, measure it on the rest.
 
     The margin is the smallest of ``margins`` whose false claims on the calibration half are at
@@ -126,15 +150,17 @@ def calibrate(records: list[dict], margins=MARGINS, max_false: float = 1 / 20) -
     half = {"calibration": [r for r in clean if seed[r["twin"]] % 2 == 0],
             "evaluation": [r for r in clean if seed[r["twin"]] % 2 == 1]}
     cal = half["calibration"]
-    false_cal = {m: sum(claim_at(r, m) is not None for r in cal) for m in margins}
+    false_cal = {m: sum(claim_at(r, m, ground=ground) is not None for r in cal) for m in margins}
     chosen = next((m for m in margins if false_cal[m] <= max_false * len(cal)), margins[-1])
     ev = half["evaluation"]
     return {
         "calibration_false": {m: (k, len(cal)) for m, k in false_cal.items()},
         "margin": chosen,
-        "evaluation_false": _rate(sum(claim_at(r, chosen) is not None for r in ev), len(ev)),
+        "evaluation_false": _rate(sum(claim_at(r, chosen, ground=ground) is not None for r in ev),
+                                  len(ev)),
         "largest_clean_gain": sorted(
-            (max((e["F"] for e in r["entries"].values()), default=0.0), r["twin"]) for r in clean
+            (max((gain(e, ground) for e in r["entries"].values()), default=0.0), r["twin"])
+            for r in clean
         )[-5:],
-        "at_margin": rates_at(records, chosen),
+        "at_margin": rates_at(records, chosen, ground=ground),
     }

@@ -31,6 +31,7 @@ from ..posterior import build_problem
 from ..synthetic.corpus import forecast_twins, write_twin
 from .fitting import refit
 from .forecast import default_origins, future_values, held_out, split_rows, training_problem
+from .ground import GROUND_HOOKS, ground_forecast, ground_gain
 from .ranking import rank_missing_effects
 
 
@@ -120,11 +121,30 @@ def diagnose_twin(twin, directory: str | Path, *, forecast: bool = False,
                    gains={e.name: round(e.forecast_gain, 2) for e in rk.entries},
                    forecast_shares={e.name: round(e.forecast_share, 3) for e in rk.entries},
                    entries={e.name: _entry_record(e) for e in rk.entries})
+        _ground_records(problem, rk, rec)
         if not twin.hidden:
             ideal = truth_forecast_rmse(cfg, [], rk.forecast.rule)
             rec.update(truth_forecast_rmse=ideal, forecast_ratio=rk.forecast.rmse / ideal)
     rec["seconds"] = time.perf_counter() - t0
     return rec
+
+
+def _ground_records(problem, rk, rec: dict) -> None:
+    """The ground forecast (:mod:`.ground`) of the base and of every candidate into ``rec``:
+    its gain ``G``, RMSE in sigma and whether it may credit the candidate (``ground``)."""
+    try:
+        gb = ground_forecast(problem, rk.forecast)
+    except ValueError:  # one sensor, or a measured top: no ground forecast
+        return
+    rec["ground_rmse_sigma"] = gb.rmse_sigma
+    rec["ground_rho"] = gb.rho
+    for e in rk.entries:
+        if e.forecast is None or e.fit is None:
+            continue
+        gc = ground_forecast(e.fit.problem, e.forecast)
+        rec["entries"][e.name].update(G=round(ground_gain(gb, gc), 3),
+                                      g_rmse_sigma=round(gc.rmse_sigma, 4),
+                                      ground=e.hook in GROUND_HOOKS)
 
 
 def diagnose_twins(twins, directory: str | Path, *, forecast: bool = False) -> list[dict]:
@@ -141,18 +161,19 @@ FORECAST_OFF = ("sensor_sun", "sensor_lag", "shading", "buried_source")
 
 def forecast_campaign_twins(n_clean: int = 40, n_effect: int = 10, n_off: int = 3, *,
                             hours: float = 40.0, input_sigma: bool = True,
-                            seed_offset: int = 0) -> list:
+                            seed_offset: int = 0, effects=FORECAST_CATALOGUE) -> list:
     """The forecast rule's calibration twins (:func:`~pavement_mcmc.synthetic.corpus.forecast_twins`):
     ``n_clean`` clean, ``n_effect`` of each :data:`FORECAST_CATALOGUE` effect, ``n_off`` of each
     :data:`FORECAST_OFF` effect, interleaved in proportion: the i-th of a category's n twins
     (in rounds of one seed of every effect) comes at (i + 1/2) / n of the run, so a run cut short
     holds the same share of every category and of every effect. ``seed_offset`` shifts every
-    seed (1000: a fresh campaign to replicate rates measured on the default seeds)."""
+    seed (1000: a fresh campaign to replicate rates measured on the default seeds); ``effects``
+    a subset of the catalogue effects."""
     kw = {"hours": hours, "input_sigma": input_sigma}
     s0 = seed_offset
     groups = [
         [t for k in range(n_clean) for t in forecast_twins((), (s0 + 600 + k,), **kw)],
-        [t for k in range(n_effect) for t in forecast_twins(FORECAST_CATALOGUE, (s0 + 700 + k,), **kw)],
+        [t for k in range(n_effect) for t in forecast_twins(tuple(effects), (s0 + 700 + k,), **kw)],
         [t for k in range(n_off) for t in forecast_twins(FORECAST_OFF, (s0 + 800 + k,), **kw)],
     ]
     keyed = [((i + 0.5) / len(g), j, t) for j, g in enumerate(groups) for i, t in enumerate(g)]

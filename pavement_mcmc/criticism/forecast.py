@@ -71,6 +71,7 @@ class Forecast:
         (n_rows, n_sensors), degC, for the figure.
     fits : the training MAP refit of each origin (not serialised).
     top_measured : the surface is a measured sensor (no h(t) to carry forward).
+    ground : the base model's :class:`~.ground.GroundForecast` when the ranking made one.
     """
 
     rule: str
@@ -88,6 +89,7 @@ class Forecast:
     predicted: np.ndarray = field(repr=False)
     fits: list = field(default_factory=list, repr=False)
     top_measured: bool = False
+    ground: object | None = field(default=None, repr=False)
 
     @property
     def driver(self) -> str:

@@ -52,7 +52,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..physics import Extension, candidate_names, get_extension
+from ..physics import candidate_names, get_extension
 from ..physics.hbasis import FINER_H
 from ..physics.materials import check_values, declared_material
 from .candidates import finer_h_spec, fit_extension, h_spec_of, h_start, variant
@@ -60,6 +60,7 @@ from .entries import (
     DATA_THRESHOLD,
     ENERGY,
     FLOOR,
+    GROUND_FORECAST,
     PER_SENSOR,
     THRESHOLD,
     Entry,
@@ -72,6 +73,7 @@ from .entries import (
 from .fitting import Fit, refit
 from .forecast import forecast as forecast_skill
 from .forecast import forecast_gain, forecast_share, plugin_gain
+from .ground import GROUND_HOOKS, ground_forecast, ground_gain, where_acts
 from .holdout import leave_one_sensor_out
 from .residuals import ResidualReport, analyse_point, noise_like, plain_signals
 from .unexplained import unexplained
@@ -99,15 +101,6 @@ def _impossible(fit: Fit, declared) -> list:
     """Alarms on kappa, C or kappa/C of ``fit`` (outside every ground material)."""
     v = fit.values()
     return [f for f in check_values(v.get("kappa"), v.get("C"), None, declared) if f.level == "alarm"]
-
-
-def _hook(ext) -> str:
-    if ext is None:
-        return "h"
-    t = type(ext)
-    if t.surface is not Extension.surface or ext.replaces_h:
-        return "surface"
-    return "material" if t.material is not Extension.material else "observe"
 
 
 def _points_at(entries: list[Entry], energy, threshold: float) -> dict | None:
@@ -160,7 +153,7 @@ def _entry(name, desc, ref: Fit, cand: Fit, ext, patterns, base_impossible, decl
         values={n: vals[n] for n in own},
         at_bound=at_bounds(cand, own, None if ext is None else ext.null_values(cand.problem.meas)),
         excess_share=excess_share(ref.rmse_sigma, cand.rmse_sigma),
-        hook=_hook(ext),
+        hook=where_acts(ext),
         profile=name in PER_SENSOR and coherent_profile({n: vals[n] for n in own}),
         restores_plausibility=bool(base_impossible) and not _impossible(cand, declared),
         fit=cand,
@@ -223,8 +216,9 @@ def rank_missing_effects(
     report : the residual report of ``values`` (:func:`~.residuals.analyse_point`), if known
         (:func:`~.diagnose.diagnose` has it): not computed again.
     forecast : claim by forecast skill (:mod:`.entries`, forecast rule): True, or a dict of
-        options of :func:`~.forecast.forecast` (``origins``, ``horizon``, ``rule``); False: the
-        in-sample rule alone.
+        options of :func:`~.forecast.forecast` (``origins``, ``horizon``, ``rule``) and
+        ``ground`` (also the ground forecast of :mod:`.ground` for ground and sensor candidates;
+        default :data:`~.entries.GROUND_FORECAST`); False: the in-sample rule alone.
     energy_law : also try the surface energy balance :data:`ENERGY` (:func:`energy_candidate`:
         None where the energy check says the surface boundary is wrong, True always, False
         never); scored and claimed by the same rule as the catalogue.
@@ -266,7 +260,7 @@ def rank_missing_effects(
         except ValueError as err:
             skipped[name] = str(err)
             continue
-        if problem.model.top_measured and _hook(ext) == "surface":
+        if problem.model.top_measured and where_acts(ext) == "surface":
             skipped[name] = "acts at the surface, which the measured top boundary replaces"
             continue
         fit = fit_extension(problem, base, name, h_spec)
@@ -282,7 +276,7 @@ def rank_missing_effects(
     lookalikes: list[str] = []
     if entries and entries[0].detected:
         def key(e):
-            return e.score if e.forecast_gain is None else e.forecast_gain
+            return e.score if e.forecast_gain is None else e.claim_gain
 
         top = key(entries[0])
         margin = max(threshold, 0.05 * top)
@@ -310,13 +304,14 @@ def claim_order(entries: list[Entry]) -> list[Entry]:
     (plausibility claims under the in-sample rule, a better forecast under the forecast rule),
     each group by score (forecast gain under the forecast rule); then the rest by score."""
     return sorted(entries, key=lambda e: (not e.detected, not e.leads,
-                                          -(e.score if e.forecast_gain is None else e.forecast_gain)))
+                                          -(e.score if e.forecast_gain is None else e.claim_gain)))
 
 
 def _forecasts(base: Fit, entries: list[Entry], options: bool | dict):
     """The base model's forecast, and each candidate's with its gain and share (forecast rule of
     :mod:`.entries`); None (in-sample rule) when the window is too short to hold a part out."""
     opts = {} if options is True else dict(options)
+    ground = opts.pop("ground", GROUND_FORECAST)
     try:
         fb = forecast_skill(base.problem, base.values(), **opts)
     except ValueError:
@@ -328,4 +323,21 @@ def _forecasts(base: Fit, entries: list[Entry], options: bool | dict):
         e.plugin_gain = plugin_gain(fb, fc)
         e.forecast_share = forecast_share(fb, fc, FLOOR)
         e.forecast_rmse_sigma = fc.rmse_sigma
+    if ground:
+        _ground_gains(base, fb, entries)
     return fb
+
+
+def _ground_gains(base: Fit, fb, entries: list[Entry]) -> None:
+    """The ground forecast (:mod:`.ground`) of the base model into ``fb.ground`` and each
+    ground or sensor candidate's gain over it (none where the case has one sensor or a
+    measured top)."""
+    try:
+        fb.ground = ground_forecast(base.problem, fb)
+    except ValueError:
+        return
+    for e in entries:
+        if e.hook in GROUND_HOOKS:
+            gc = ground_forecast(e.fit.problem, e.forecast)
+            e.ground_gain = ground_gain(fb.ground, gc)
+            e.ground_rmse_sigma = gc.rmse_sigma

@@ -72,6 +72,11 @@ def forecast_sentence(best, entries, fbase) -> str:
         return (f" It is claimed for the plausibility of its kappa and C, not by its forecast: "
                 f"RMSE of {period} {fbase.rmse_sigma:.2f} σ -> {best.forecast_rmse_sigma:.2f} σ, "
                 f"F = {best.forecast_gain:.1f} <= {FORECAST_THRESHOLD:g}.")
+    if best is not None and best.by_ground and getattr(fbase, "ground", None) is not None:
+        return (f" It forecasts the deeper sensors in {period} from the measured top sensor "
+                f"better than the base model: RMSE {fbase.ground.rmse_sigma:.2f} σ -> "
+                f"{best.ground_rmse_sigma:.2f} σ (ground gain G = {best.ground_gain:.0f} > "
+                f"{FORECAST_THRESHOLD:g}; from the forcing alone F = {best.forecast_gain:.0f}).")
     if best is not None and best.forecast_gain is not None:
         return (f" It forecasts {period} from {fbase.driver} better than the base model: "
                 f"RMSE {fbase.rmse_sigma:.2f} σ -> {best.forecast_rmse_sigma:.2f} σ (gain F = "
