@@ -112,9 +112,10 @@ def plot_ranking(ranking, fig: Figure | None = None) -> Figure:
     panels = [("S", [e.score for e in entries], ranking.threshold,
                "in-sample misfit drop S (penalised)" + (", supporting" if forecast else ""))]
     if forecast:
-        panels.insert(0, ("F", [np.nan if e.forecast_gain is None else e.forecast_gain
-                                for e in entries], FORECAST_THRESHOLD,
-                          "forecast gain F on the held-out period (the claim rule)"))
+        gains = [getattr(e, "claim_gain", e.forecast_gain) for e in entries]
+        panels.insert(0, ("F", [np.nan if g is None else g for g in gains], FORECAST_THRESHOLD,
+                          "forecast gain on the held-out period, the larger of F and the "
+                          "ground forecast's G (the claim rule)"))
     height = 0.45 * len(entries) + 2.2
     fig = new_figure(fig, (4.2 * len(panels) + 2.2, height))
     axes = np.atleast_1d(fig.subplots(1, len(panels), sharey=True))

@@ -57,7 +57,7 @@ def test_under_the_forecast_rule_the_figure_shows_the_claim_rules_gain_first():
     entries = [best, _entry("evaporation", 30.0, False, False, forecast_gain=-4.0)]
     fig = plot_ranking(SimpleNamespace(entries=entries, best=best, threshold=10.0))
     f_ax, s_ax = fig.axes[:2]
-    assert "forecast gain F" in f_ax.get_title() and "S" in s_ax.get_title()
+    assert "forecast gain" in f_ax.get_title() and "S" in s_ax.get_title()
     f_line = [ln.get_xdata()[0] for ln in f_ax.lines if ln.get_linestyle() == "--"]
     assert np.allclose(f_line, np.log10(1 + FORECAST_THRESHOLD))
     widths = {round(p.get_y() + p.get_height() / 2): p.get_width() for p in f_ax.patches}
