@@ -195,10 +195,9 @@ def headline(rk) -> str:
     of these" and where the evidence points, or no missing effect; then any alarm."""
     best, fb = rk.best, rk.forecast
     if best is not None:
-        ground = getattr(best, "by_ground", False)
         by = (f"it forecasts the held-out {fb.horizon:g} h "
               + ("of the deeper sensors from the measured top sensor better, G = "
-                 f"{best.ground_gain:.0f}" if ground else f"better, F = {best.forecast_gain:.0f}")
+                 f"{best.ground_gain:.0f}" if best.by_ground else f"better, F = {best.forecast_gain:.0f}")
               + f" > {FORECAST_THRESHOLD:g}" if best.forecast_gain is not None and best.forecasts_better
               else "it brings kappa and C back into the range of ground materials"
               if best.plausibility_claim else f"its score {best.score:.0f}")

@@ -76,6 +76,7 @@ class Model:
         self.plates = bool(plates) and meas.n_plates > 0
         if self.plates:
             self._flux_c, self._flux_w = flux_weights(grid.x, meas.flux_depths)
+        self._plate_names = [f"plate_{lab}" for lab in meas.plate_labels] if self.plates else []
         self.replaces_h = self.top_measured or any(e.replaces_h for e in self.extensions)
         if sum(e.replaces_h for e in self.extensions) > 1:
             raise ValueError("two extensions both replace h(t): " + str(names))
@@ -84,11 +85,7 @@ class Model:
     @property
     def plate_names(self) -> list[str]:
         """Calibration-factor parameter of each observed plate, e.g. ``plate_G5cm``."""
-        memo = self.__dict__.get("_plate_names")  # named once (read in every gradient)
-        if memo is None or memo[0] is not self.meas or memo[1] != self.plates:
-            names = [f"plate_{lab}" for lab in self.meas.plate_labels] if self.plates else []
-            memo = self._plate_names = (self.meas, self.plates, names)
-        return list(memo[2])
+        return list(self._plate_names)
 
     def parameter_space(self) -> ParameterSpace:
         """Every parameter of the model with the paper's priors; extensions add theirs.

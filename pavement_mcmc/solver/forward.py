@@ -149,10 +149,13 @@ def solve(grid: Grid, forcing: Forcing, coeffs: Coefficients, scheme: str = "cn"
 
 def _parallel(S: int, grid: Grid | None = None) -> bool:
     """Run blocks of sets on numba's threads? Many sets, or 16 and more on a long solve."""
-    if S >= _PARALLEL_MIN or S < 16 or grid is None or _PARALLEL_WORK == math.inf:
-        return S >= _PARALLEL_MIN and numba.get_num_threads() >= 2  # no need to count the work
-    work = float(S) * float(np.sum(grid.substeps)) * grid.n_nodes
-    return work >= _PARALLEL_WORK and numba.get_num_threads() >= 2
+    if numba.get_num_threads() < 2:
+        return False
+    if S >= _PARALLEL_MIN:
+        return True
+    if S < 16 or grid is None or _PARALLEL_WORK == math.inf:  # no need to count the work
+        return False
+    return float(S) * float(np.sum(grid.substeps)) * grid.n_nodes >= _PARALLEL_WORK
 
 
 def _block(S: int, parallel: bool) -> int:
