@@ -77,6 +77,7 @@ def _summary(dx, how: str, label: str) -> list[str]:
 
 def _candidates(rk) -> list[str]:
     fc = rk.forecast is not None
+    ground = any(e.ground_gain is not None for e in rk.entries)
     rule = (f"* claimable: its forecast gain F > {FORECAST_THRESHOLD:g} and no worse in-sample "
             f"fit (S >= -{rk.threshold:g})" if fc else
             f"* claimable: S > {rk.threshold:g} and D > {DATA_THRESHOLD:g}")
@@ -86,12 +87,16 @@ def _candidates(rk) -> list[str]:
         "the misfit drop alone, never credited for fewer parameters; "
         + ("F = forecast gain, the held-out period's effective count times log(base forecast "
            "MSE / candidate's); " if fc else "")
+        + ("G = the same gain of the ground forecast (the deeper sensors from the measured top "
+           "sensor; ground and sensor candidates only), the larger of F and G is claimed; "
+           if ground else "")
         + f"{rule}, or it brings an impossible fit back into range; "
         "~ prior-driven: S passes through Δprior or fewer parameters, not claimed; "
         "! a parameter of its own at a bound, or per-sensor offsets that line up with depth, "
         "not claimed):",
         f"  {'#':<3}{'candidate':<26}{'S':>8}{'D':>8}{'Δχ²':>9}{'Δprior':>8}{'+params':>8}"
-        f"{'RMSE':>7}{'/σ':>6}" + (f"{'F':>8}{'fc /σ':>7}" if fc else ""),
+        f"{'RMSE':>7}{'/σ':>6}" + (f"{'F':>8}{'fc /σ':>7}" if fc else "")
+        + (f"{'G':>8}" if ground else ""),
     ]
     for i, e in enumerate(rk.entries, 1):
         mark = "*" if e.detected else "!" if e.at_bound or e.profile else "~" if e.prior_driven else " "
@@ -99,6 +104,8 @@ def _candidates(rk) -> list[str]:
             f"{mark} {i:<3}{e.name:<26}{e.score:8.1f}{e.data_score:8.1f}{e.delta_chi2:9.1f}"
             f"{e.delta_prior:8.1f}{e.added_params:8.2f}{e.rmse:7.3f}{e.rmse_sigma:6.2f}"
             + (f"{e.forecast_gain:8.1f}{e.forecast_rmse_sigma:7.2f}" if fc else "")
+            + ((f"{e.ground_gain:8.1f}" if e.ground_gain is not None else f"{'-':>8}")
+               if ground else "")
             + (f"  LOSO lpd {e.loso_lpd:+.3f}" if e.loso_lpd is not None else "")
             + (f"  at bound: {', '.join(e.at_bound)}" if e.at_bound else "")
             + ("  offsets: one coherent depth profile" if e.profile else "")

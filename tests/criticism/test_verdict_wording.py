@@ -56,3 +56,19 @@ def test_the_headline_states_the_verdict_in_a_sentence():
                      "points at the surface energy balance. The base fit is physically impossible "
                      "(kappa = 12.7 W m-1 K-1, C = 26.3 MJ m-3 K-1).")
     assert headline(_ranking()) == "Verdict: no missing effect detected."
+
+
+def test_the_candidates_table_shows_the_ground_gain_when_there_is_one():
+    """The ground forecast's G entered the claim rule but the table showed F only."""
+    from pavement_mcmc.cli.diagnose import _candidates
+
+    e = _claimed(1.0)
+    e.ground_gain = 43.0
+    rk = SimpleNamespace(entries=[e, _claimed(0.6)], forecast=object(), threshold=10.0, skipped={})
+    lines = _candidates(rk)
+    head = next(ln for ln in lines if "candidate" in ln and "RMSE" in ln)
+    assert head.rstrip().endswith("G")
+    assert any(ln.rstrip().endswith("43.0") for ln in lines)
+    assert all("G" not in ln.split()[-1:] for ln in _candidates(
+        SimpleNamespace(entries=[_claimed(0.6)], forecast=object(), threshold=10.0, skipped={}))
+        if "candidate" in ln and "RMSE" in ln)
