@@ -38,6 +38,7 @@ import numpy as np
 from scipy import optimize
 from scipy.interpolate import CubicSpline
 
+from . import marginal_compiled as _mc
 from .map import ScaledResiduals, parameter_scales
 
 __all__ = ["MarginalGMRF", "MarginalMAP", "find_marginal_map", "gmrf_of"]
@@ -136,6 +137,22 @@ class MarginalGMRF:
         """Var[gamma | S]."""
         ls = np.clip(np.log(np.maximum(np.asarray(S, float), 1e-300)), self.log_s_lo, self.log_s_hi)
         return np.exp(self._var(ls))
+
+    def terms(self, H: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """``(log F(S), E[gamma | S], D^T D h)`` of rows of h (n, N), S = ||D h||^2: what
+        :meth:`log_f` and :meth:`mean_gamma` give, to the bit, in two compiled calls
+        (:mod:`.marginal_compiled`); the gradient of log F in h is ``-E[gamma|S] D^T D h``."""
+        H = np.asarray(H, dtype=float)
+        if not (H.flags.c_contiguous or H.flags.f_contiguous) or H.ndim != 2:  # NumPy's order unknown
+            H = np.ascontiguousarray(H)
+        S, DtDh = _mc.rows(H, H.flags.c_contiguous)
+        with np.errstate(divide="ignore"):
+            ls = np.log(np.maximum(S, 0.0))
+        f, m1 = _mc.splines(self._logF.x, self._logF.c, self._m1.c,
+                            np.clip(ls, self.log_s_lo, self.log_s_hi))
+        f = np.where(ls < self.log_s_lo, self._ends[0], f)
+        f = np.where(ls > self.log_s_hi, self._ends[1] + self._slope_hi * (ls - self.log_s_hi), f)
+        return f, np.exp(m1), DtDh
 
     def log_prior_h(self, H: np.ndarray) -> np.ndarray:
         """Marginal log-prior of rows of h (n, N): log F(||D h||^2)."""

@@ -230,15 +230,10 @@ class HMCSampler(Sampler):
         else:
             gp = space.grad_log_prior(theta)
         g = (gll + gp)[:, self.idx]
-        if self.marginal:
-            h = theta[:, self.hcols]
-            dh = np.diff(h, axis=1)
-            S = np.sum(dh * dh, axis=1)
-            f = ll + self.target.uni_logp(theta) + self.target.tab.log_f(S)
-            DtDh = np.zeros_like(h)
-            DtDh[:, :-1] -= dh
-            DtDh[:, 1:] += dh
-            g[:, self.hpos] -= self.target.tab.mean_gamma(S)[:, None] * DtDh
+        if self.marginal:  # + log F(||Dh||^2), whose gradient in h is -E[gamma | S] D^T D h
+            log_f, mean_gamma, DtDh = self.target.tab.terms(theta[:, self.hcols])
+            f = ll + self.target.uni_logp(theta) + log_f
+            g[:, self.hpos] -= mean_gamma[:, None] * DtDh
         else:
             f = ll + space.log_prior(theta)
         bad = ~(np.isfinite(f) & np.all(np.isfinite(g), axis=1))
