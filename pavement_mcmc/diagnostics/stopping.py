@@ -88,7 +88,7 @@ class StoppingRule:
 
     def check(self, chain, logp: np.ndarray, accepted: np.ndarray, n_adapt_rows: int,
               burn_in: int | None = None, names: list[str] | None = None,
-              full: bool = True) -> Check:
+              full: bool = True, first: int | None = None) -> Check:
         """Apply the rule to stored rows.
 
         ``chain``: (n_rows, n_chains, n_params) array, or an object whose ``take(idx)`` returns
@@ -97,24 +97,36 @@ class StoppingRule:
         :data:`TAU_ROWS` rows (tau, ESS, drift) and :data:`RHAT_ROWS` rows (split-R-hat; the
         rank normalisation sorts every draw). With ``full=False`` the check stops at the first
         failing criterion in the order ESS / length (cheap), drift, R-hat (the costly one);
-        unevaluated R-hats are ``nan``.
+        unevaluated R-hats are ``nan``. ``first`` (with ``full=False``): the parameter whose ESS
+        held the last check; its ESS alone is estimated first, and a check it fails ends there
+        (the other parameters' ESS and tau ``nan``): a long run's checks then cost one
+        parameter's autocorrelation instead of all of them (Case C: 115).
         """
-        take = (lambda idx: chain[idx]) if isinstance(chain, np.ndarray) else chain.take
+        take = (lambda idx, col=None: chain[idx] if col is None else chain[idx][..., col]) \
+            if isinstance(chain, np.ndarray) else chain.take
         if burn_in is None:
             rest = logp[n_adapt_rows:]
             extra = choose_burn_in(rest) if rest.shape[0] >= 20 else 0
             burn_in = n_adapt_rows + extra
         n_kept = logp.shape[0] - burn_in
-        first = take(np.arange(1))
-        m, p = first.shape[1], first.shape[2]
+        row0 = take(np.arange(1))
+        m, p = row0.shape[1], row0.shape[2]
         names = names or [f"p{i}" for i in range(p)]
         if n_kept < MIN_KEPT_ROWS:
             return Check(burn_in, np.zeros(p), np.full(p, np.inf), np.full(p, np.inf),
                          float("nan"), False, [f"only {max(n_kept, 0)} kept steps"])
         k = max(1, n_kept // TAU_ROWS)
-        tau = integrated_time(take(np.arange(burn_in, logp.shape[0], k)), tol=0, quiet=True) * k
-        ess = n_kept * m / tau
+        steps = np.arange(burn_in, logp.shape[0], k)
         acc = float(np.mean(accepted[burn_in:]))
+        if not full and first is not None:
+            t1 = float(integrated_time(take(steps, [first]), tol=0, quiet=True)[0] * k)
+            if n_kept * m / t1 < self.ess_target:
+                ess, tau = np.full(p, np.nan), np.full(p, np.nan)
+                ess[first], tau[first] = n_kept * m / t1, t1
+                return Check(burn_in, ess, tau, np.full(p, np.nan), acc, False,
+                             [f"ESS {ess[first]:.0f} < {self.ess_target:g} ({names[first]})"])
+        tau = integrated_time(take(steps), tol=0, quiet=True) * k
+        ess = n_kept * m / tau
         fails = []
         if not np.all(ess >= self.ess_target):
             fails.append(f"ESS {ess.min():.0f} < {self.ess_target:g} "

@@ -106,12 +106,13 @@ class Rows:
                 lst[:] = [np.concatenate(lst)]
         return self._logp[0], self._acc[0]
 
-    def take(self, idx: np.ndarray) -> np.ndarray:
-        """Chain rows at increasing global indices ``idx``."""
+    def take(self, idx: np.ndarray, cols=None) -> np.ndarray:
+        """Chain rows at increasing global indices ``idx`` (of the parameters ``cols`` only)."""
         idx = np.asarray(idx, int)
         bounds = np.searchsorted(idx, [*self.starts, self.n])
-        parts = [blk[idx[a:b] - s] for blk, s, a, b in zip(self.blocks, self.starts, bounds[:-1],
-                                                             bounds[1:]) if b > a]
+        pick = (lambda blk, i: blk[i]) if cols is None else (lambda blk, i: blk[:, :, cols][i])
+        parts = [pick(blk, idx[a:b] - s) for blk, s, a, b in zip(self.blocks, self.starts, bounds[:-1],
+                                                                  bounds[1:]) if b > a]
         return np.concatenate(parts) if parts else self.blocks[0][:0]
 
 
@@ -156,6 +157,7 @@ def run_sampler(
     # a kept chain shorter than SKIP_FRACTION x min_tau_lengths x (last tau_max) cannot pass:
     # such a check is skipped (the skip depends on the chain only, so runs stay reproducible)
     hint = loop_state.get("hint", [0, 0.0])  # [burn-in rows, tau_max] of the last check
+    first = loop_state.get("first")  # the parameter with the smallest ESS at the last check
     while True:
         reason = _budget_out(n_steps, max_steps, max_seconds, time.perf_counter() - t0)
         if reason:
@@ -174,12 +176,15 @@ def run_sampler(
             due = rows.n - hint[0] >= SKIP_FRACTION * rule.min_tau_lengths * hint[1]
         state = sampler.get_state()
         state.extra["loop"] = {"n_steps": n_steps, "n_evals": n_evals, "n_adapt": n_adapt,
-                               "thin": thin, "next_check": next_check, "hint": hint}
+                               "thin": thin, "next_check": next_check, "hint": hint,
+                               "first": first}
         store.flush(state)
         block = _next_block(todo, dt, time.perf_counter() - t0, block_seconds, thin)
         if due and n_steps >= min_steps:
-            check = rule.check(rows, *rows.small(), n_adapt_rows, burn_rows, names, full=False)
+            check = rule.check(rows, *rows.small(), n_adapt_rows, burn_rows, names, full=False,
+                               first=first)
             hint, converged = _hint(check), not check.failures
+            first = int(np.nanargmin(check.ess)) if np.isfinite(check.ess).any() else None
             reason = rule.met_text() if converged else reason
         if callback is not None:
             callback({"n_steps": n_steps, "n_evals": n_evals, "n_adapt": n_adapt,
@@ -199,12 +204,12 @@ def run_sampler(
 def _progress(rule: StoppingRule, check: Check | None, b, elapsed: float) -> dict:
     """The callback's view of the last block and check (min ESS against the target)."""
     return {"ess_target": rule.ess_target, "acceptance": float(b.accepted.mean()),
-            "min_ess": None if check is None else float(np.min(check.ess)), "elapsed": elapsed}
+            "min_ess": None if check is None else float(np.nanmin(check.ess)), "elapsed": elapsed}
 
 
 def _hint(check: Check) -> list:
     """[burn-in rows, tau_max] of a check: the next check is skipped while it cannot pass."""
-    tau_max = float(np.max(check.tau))
+    tau_max = float(np.nanmax(check.tau)) if np.isfinite(check.tau).any() else float("inf")
     return [int(check.burn_in), tau_max if np.isfinite(tau_max) else 0.0]
 
 

@@ -1,0 +1,37 @@
+"""A check that starts with the parameter which held the last one (``first``) decides as the
+full check does, and, when that parameter still fails, estimates nothing else."""
+
+import numpy as np
+
+from pavement_mcmc.diagnostics.stopping import StoppingRule
+
+
+def _chains(n=3000, m=8, p=6, phi=0.95, seed=0):
+    """Parameter 2 an AR(1) with tau = (1 + phi) / (1 - phi) = 39; the others white noise."""
+    rng = np.random.default_rng(seed)
+    x = rng.standard_normal((n, m, p))
+    for t in range(1, n):
+        x[t, :, 2] = phi * x[t - 1, :, 2] + np.sqrt(1 - phi**2) * x[t, :, 2]
+    return x, np.zeros((n, m)), np.ones((n, m), bool)
+
+
+def test_first_parameter_failing_ends_the_check_with_only_its_estimate():
+    x, lp, acc = _chains()
+    rule = StoppingRule(ess_target=1000.0)
+    full = rule.check(x, lp, acc, 0, burn_in=0, full=False)
+    quick = rule.check(x, lp, acc, 0, burn_in=0, full=False, first=2)
+    assert full.failures and quick.failures and "p2" in quick.failures[0]
+    assert np.isnan(quick.ess[[0, 1, 3, 4, 5]]).all()
+    # its one estimate is the full check's (tau ~ 39 of the AR(1)), not a cheaper one
+    assert 25 < quick.tau[2] < 60
+    np.testing.assert_allclose(quick.tau[2], full.tau[2], rtol=1e-12)
+
+
+def test_first_parameter_passing_gives_the_full_check():
+    x, lp, acc = _chains()
+    rule = StoppingRule(ess_target=200.0, min_tau_lengths=20.0)
+    full = rule.check(x, lp, acc, 0, burn_in=0, full=False)
+    quick = rule.check(x, lp, acc, 0, burn_in=0, full=False, first=2)
+    assert quick.failures == full.failures
+    np.testing.assert_array_equal(quick.ess, full.ess)
+    np.testing.assert_array_equal(quick.rhat, full.rhat)
