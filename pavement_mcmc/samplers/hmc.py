@@ -53,6 +53,8 @@ solve and one adjoint sweep, or ``2 d + 1`` solves by central differences withou
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from ..posterior.map import find_map
@@ -236,10 +238,12 @@ class HMCSampler(Sampler):
             g[:, self.hpos] -= mean_gamma[:, None] * DtDh
         else:
             f = ll + space.log_prior(theta)
-        bad = ~(np.isfinite(f) & np.all(np.isfinite(g), axis=1))
-        f = np.where(bad, -np.inf, f)
         # one memory layout for every gradient (the adjoint's, column-major): it decides
         # BLAS's summation order in ``g @ L``, so a restored ``g`` must have it too
+        if math.isfinite(f.sum() + g.sum()):  # the common case: every row finite
+            return f, np.asfortranarray(g), ll, bl
+        bad = ~(np.isfinite(f) & np.all(np.isfinite(g), axis=1))
+        f = np.where(bad, -np.inf, f)
         g = np.asfortranarray(np.where(bad[:, None], 0.0, g))
         return f, g, ll, np.where(bad[:, None], np.inf, bl)
 
