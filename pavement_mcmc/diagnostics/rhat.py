@@ -25,14 +25,17 @@ def _average_ranks(a: np.ndarray) -> np.ndarray:
     order = np.argsort(a, axis=-1)
     s = np.take_along_axis(a, order, axis=-1)
     n = a.shape[-1]
-    idx = np.broadcast_to(np.arange(n), a.shape)
+    ranks = np.empty(a.shape)
     first = np.ones(a.shape, dtype=bool)
     first[..., 1:] = s[..., 1:] != s[..., :-1]
+    if first.all():  # no ties (continuous draws): rank = place in the sorted order
+        np.put_along_axis(ranks, order, np.broadcast_to(np.arange(1.0, n + 1.0), a.shape), axis=-1)
+        return ranks
+    idx = np.broadcast_to(np.arange(n), a.shape)
     last = np.ones(a.shape, dtype=bool)
     last[..., :-1] = first[..., 1:]
     start = np.maximum.accumulate(np.where(first, idx, 0), axis=-1)
     stop = np.flip(np.minimum.accumulate(np.flip(np.where(last, idx, n - 1), -1), axis=-1), -1)
-    ranks = np.empty(a.shape)
     np.put_along_axis(ranks, order, (start + stop) / 2.0 + 1.0, axis=-1)
     return ranks
 
