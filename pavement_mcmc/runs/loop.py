@@ -37,8 +37,11 @@ from ..storage import Store
 
 #: checks at fixed step counts: CHECK_FIRST steps after the adaptation, then whenever the step
 #: count has grown by CHECK_GROWTH (at least CHECK_FIRST steps later), so where a run stops
-#: depends on its seed only, never on the machine's speed, and the checks cost a bounded share
-CHECK_FIRST, CHECK_GROWTH, SKIP_FRACTION = 20, 1.15, 0.7
+#: depends on its seed only, never on the machine's speed, and the checks cost a bounded share.
+#: A run overshoots the step its rule first holds at by up to CHECK_GROWTH - 1: at 1.15 (before
+#: a failing check cost one parameter's autocorrelation, :meth:`StoppingRule.check` ``first``)
+#: Case C seeds 1-6 took 846 k evaluations, at 1.05 768 k; grass/tutorial windows 4-5 % fewer
+CHECK_FIRST, CHECK_GROWTH, SKIP_FRACTION = 20, 1.05, 0.7
 
 
 @dataclass
