@@ -33,7 +33,8 @@ MIN_KEPT_ROWS = 8
 class Check:
     """The outcome of :meth:`StoppingRule.check`: the burn-in (rows), per-parameter ESS, tau (in
     rows) and split-R-hat (``nan`` where not evaluated), the kept acceptance, the drift flag and
-    the failed criteria (empty: the rule is met)."""
+    the failed criteria (empty: the rule is met); ``held_by``, the parameter that failed the ESS
+    (the smallest) or else the R-hat criterion (the largest), None when neither failed."""
 
     burn_in: int
     ess: np.ndarray
@@ -42,6 +43,7 @@ class Check:
     acceptance: float
     drifting: bool
     failures: list
+    held_by: int | None = None
 
 
 @dataclass(frozen=True)
@@ -97,10 +99,11 @@ class StoppingRule:
         :data:`TAU_ROWS` rows (tau, ESS, drift) and :data:`RHAT_ROWS` rows (split-R-hat; the
         rank normalisation sorts every draw). With ``full=False`` the check stops at the first
         failing criterion in the order ESS / length (cheap), drift, R-hat (the costly one);
-        unevaluated R-hats are ``nan``. ``first`` (with ``full=False``): the parameter whose ESS
-        held the last check; its ESS alone is estimated first, and a check it fails ends there
-        (the other parameters' ESS and tau ``nan``): a long run's checks then cost one
-        parameter's autocorrelation instead of all of them (Case C: 115).
+        unevaluated R-hats are ``nan``. ``first`` (with ``full=False``): the parameter that held
+        the last check (its ``held_by``); its ESS, and later its R-hat, are estimated before the
+        others', and a check it fails ends there (the rest ``nan``): a long run's checks then
+        cost one parameter's autocorrelation or ranks instead of all of them (Case C: 115).
+        Where it passes, every parameter is estimated, so the decision is the full check's.
         """
         take = (lambda idx, col=None: chain[idx] if col is None else chain[idx][..., col]) \
             if isinstance(chain, np.ndarray) else chain.take
@@ -124,13 +127,13 @@ class StoppingRule:
                 ess, tau = np.full(p, np.nan), np.full(p, np.nan)
                 ess[first], tau[first] = n_kept * m / t1, t1
                 return Check(burn_in, ess, tau, np.full(p, np.nan), acc, False,
-                             [f"ESS {ess[first]:.0f} < {self.ess_target:g} ({names[first]})"])
+                             [f"ESS {ess[first]:.0f} < {self.ess_target:g} ({names[first]})"], first)
         tau = integrated_time(take(steps), tol=0, quiet=True) * k
         ess = n_kept * m / tau
-        fails = []
+        fails, held = [], None
         if not np.all(ess >= self.ess_target):
-            fails.append(f"ESS {ess.min():.0f} < {self.ess_target:g} "
-                         f"({names[int(np.argmin(ess))]})")
+            held = int(np.argmin(ess))
+            fails.append(f"ESS {ess.min():.0f} < {self.ess_target:g} ({names[held]})")
         if not n_kept >= self.min_tau_lengths * np.max(tau):
             fails.append(f"kept chain {n_kept} < {self.min_tau_lengths:g} x tau_max "
                          f"{np.max(tau):.1f}")
@@ -139,11 +142,16 @@ class StoppingRule:
             fails.append("log-posterior still drifting")
         rhat = np.full(p, np.nan)
         if full or not fails:
-            kr = max(1, n_kept // RHAT_ROWS)
-            rhat = split_rhat(take(np.arange(burn_in, logp.shape[0], kr)))
+            rows = np.arange(burn_in, logp.shape[0], max(1, n_kept // RHAT_ROWS))
+            quick = not full and first is not None
+            if quick:
+                rhat[first] = split_rhat(take(rows, [first]))[0]
+            if not quick or rhat[first] < self.rhat_max:
+                rhat = split_rhat(take(rows))
             if not np.all(rhat < self.rhat_max):
+                held = int(np.nanargmax(rhat))
                 fails.append(f"R-hat {np.nanmax(rhat):.3f} >= {self.rhat_max}")
-        return Check(burn_in, ess, tau, rhat, acc, drifting, fails)
+        return Check(burn_in, ess, tau, rhat, acc, drifting, fails, held)
 
 
 #: the rule of runs stored before the rule was (their ``result.json`` has no ``"rule"``): the

@@ -160,7 +160,7 @@ def run_sampler(
     # a kept chain shorter than SKIP_FRACTION x min_tau_lengths x (last tau_max) cannot pass:
     # such a check is skipped (the skip depends on the chain only, so runs stay reproducible)
     hint = loop_state.get("hint", [0, 0.0])  # [burn-in rows, tau_max] of the last check
-    first = loop_state.get("first")  # the parameter with the smallest ESS at the last check
+    first = loop_state.get("first")  # the parameter that held the last check (its ESS or R-hat)
     while True:
         reason = _budget_out(n_steps, max_steps, max_seconds, time.perf_counter() - t0)
         if reason:
@@ -187,7 +187,7 @@ def run_sampler(
             check = rule.check(rows, *rows.small(), n_adapt_rows, burn_rows, names, full=False,
                                first=first)
             hint, converged = _hint(check), not check.failures
-            first = int(np.nanargmin(check.ess)) if np.isfinite(check.ess).any() else None
+            first = check.held_by if check.held_by is not None else first
             reason = rule.met_text() if converged else reason
         if callback is not None:
             callback({"n_steps": n_steps, "n_evals": n_evals, "n_adapt": n_adapt,

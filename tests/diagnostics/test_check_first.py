@@ -28,10 +28,22 @@ def test_first_parameter_failing_ends_the_check_with_only_its_estimate():
 
 
 def test_first_parameter_passing_gives_the_full_check():
-    x, lp, acc = _chains()
+    x, lp, acc = _chains(phi=0.8)
     rule = StoppingRule(ess_target=200.0, min_tau_lengths=20.0)
     full = rule.check(x, lp, acc, 0, burn_in=0, full=False)
     quick = rule.check(x, lp, acc, 0, burn_in=0, full=False, first=2)
-    assert quick.failures == full.failures
+    assert full.failures == [] and quick.failures == [] and quick.held_by is None
     np.testing.assert_array_equal(quick.ess, full.ess)
     np.testing.assert_array_equal(quick.rhat, full.rhat)
+
+
+def test_first_parameter_failing_r_hat_ends_the_check_with_only_its_r_hat():
+    x, lp, acc = _chains(n=3000, phi=0.0)
+    x[:, :4, 4] += 0.5  # parameter 4: half the chains elsewhere (R-hat well above 1.01)
+    rule = StoppingRule(ess_target=100.0, min_tau_lengths=5.0)
+    full = rule.check(x, lp, acc, 0, burn_in=0, full=False)
+    assert full.held_by == 4 and full.failures[-1].startswith("R-hat")
+    quick = rule.check(x, lp, acc, 0, burn_in=0, full=False, first=4)
+    assert quick.held_by == 4 and quick.failures == full.failures
+    assert np.isnan(quick.rhat[[0, 1, 2, 3, 5]]).all()
+    np.testing.assert_allclose(quick.rhat[4], full.rhat[4], rtol=1e-12)
