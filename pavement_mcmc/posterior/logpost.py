@@ -29,6 +29,7 @@ from ..parameters import ParameterSpace
 from ..physics.model import Model
 from ..solver import solve
 from .observations import Observation, Plates, Temperatures, default_flux_sd, log_likelihood
+from .plain_gradient import PlainGradient
 
 __all__ = ["LogPosterior", "default_flux_sd", "default_streams"]
 
@@ -65,6 +66,7 @@ class LogPosterior:
         if not isinstance(self.streams[0], Temperatures):
             raise ValueError("the first observation stream must be the sensors' temperatures")
         self._grad_cols = None  # (model gradient names, source and free columns), cached
+        self._plain = None  # a PlainGradient when the model is plain, else False (decided once)
 
     # -- the temperature stream (the paper's likelihood) and the plates, by their old names ------
     @property
@@ -198,6 +200,12 @@ class LogPosterior:
             return self._loglik_and_grad_fd(theta, fd_step)
         p = self.space.expand(theta)
         model = self.model
+        if self._plain is None:
+            self._plain = PlainGradient(model, self.streams[0]) if PlainGradient.applies(model) else False
+        plain = self._plain(p) if self._plain and len(self.streams) == 1 else None
+        if plain is not None:  # the same numbers without the generic glue
+            ll, G, rmse = plain
+            return ll, self._free_gradient(theta, self._plain.names, G), rmse
         keep = {}
         temps = self.streams[0]
         compiled = temps.compiled_applies(model)
@@ -233,6 +241,11 @@ class LogPosterior:
             return gT, direct
 
         _, names, G = model.solve_vjp(p, cotangent)
+        return keep["ll"], self._free_gradient(theta, names, G), keep["rmse"]
+
+    def _free_gradient(self, theta: np.ndarray, names, G: np.ndarray) -> np.ndarray:
+        """The model's gradient ``G`` (columns ``names``) in the free columns of ``theta``."""
+        names = list(names)
         if self._grad_cols is None or self._grad_cols[0] != names:
             col = {n: i for i, n in enumerate(self.space.free)}
             pairs = [(j, col[n]) for j, n in enumerate(names) if n in col]
@@ -240,7 +253,7 @@ class LogPosterior:
         _, src, dst = self._grad_cols
         grad = np.zeros(theta.shape)  # parameters the likelihood does not see (gamma): 0
         grad[:, dst] = G[:, src]
-        return keep["ll"], grad, keep["rmse"]
+        return grad
 
     def _loglik_and_grad_fd(self, theta: np.ndarray, fd_step: float):
         """Central differences, one-sided where a bound is closer than the step (h = 0)."""
