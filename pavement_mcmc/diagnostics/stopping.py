@@ -100,7 +100,7 @@ class StoppingRule:
         rank normalisation sorts every draw). With ``full=False`` the check stops at the first
         failing criterion in the order ESS / length (cheap), drift, R-hat (the costly one);
         unevaluated R-hats are ``nan``. ``first`` (with ``full=False``): the parameter that held
-        the last check (its ``held_by``); its ESS, and later its R-hat, are estimated before the
+        the last check (its ``held_by``); its ESS and its R-hat are estimated before the
         others', and a check it fails ends there (the rest ``nan``): a long run's checks then
         cost one parameter's autocorrelation or ranks instead of all of them (Case C: 115).
         Where it passes, every parameter is estimated, so the decision is the full check's.
@@ -121,13 +121,19 @@ class StoppingRule:
         k = max(1, n_kept // TAU_ROWS)
         steps = np.arange(burn_in, logp.shape[0], k)
         acc = float(np.mean(accepted[burn_in:]))
-        if not full and first is not None:
-            t1 = float(integrated_time(take(steps, [first]), tol=0, quiet=True)[0] * k)
-            if n_kept * m / t1 < self.ess_target:
-                ess, tau = np.full(p, np.nan), np.full(p, np.nan)
-                ess[first], tau[first] = n_kept * m / t1, t1
-                return Check(burn_in, ess, tau, np.full(p, np.nan), acc, False,
+        rows = np.arange(burn_in, logp.shape[0], max(1, n_kept // RHAT_ROWS))
+        quick = not full and first is not None
+        if quick:  # the parameter that held the last check: its ESS, then its R-hat
+            ess, tau, rhat = np.full(p, np.nan), np.full(p, np.nan), np.full(p, np.nan)
+            tau[first] = float(integrated_time(take(steps, [first]), tol=0, quiet=True)[0] * k)
+            ess[first] = n_kept * m / tau[first]
+            if ess[first] < self.ess_target:
+                return Check(burn_in, ess, tau, rhat, acc, False,
                              [f"ESS {ess[first]:.0f} < {self.ess_target:g} ({names[first]})"], first)
+            rhat[first] = split_rhat(take(rows, [first]))[0]
+            if not rhat[first] < self.rhat_max:
+                return Check(burn_in, ess, tau, rhat, acc, False,
+                             [f"R-hat {rhat[first]:.3f} >= {self.rhat_max} ({names[first]})"], first)
         tau = integrated_time(take(steps), tol=0, quiet=True) * k
         ess = n_kept * m / tau
         fails, held = [], None
@@ -142,15 +148,10 @@ class StoppingRule:
             fails.append("log-posterior still drifting")
         rhat = np.full(p, np.nan)
         if full or not fails:
-            rows = np.arange(burn_in, logp.shape[0], max(1, n_kept // RHAT_ROWS))
-            quick = not full and first is not None
-            if quick:
-                rhat[first] = split_rhat(take(rows, [first]))[0]
-            if not quick or rhat[first] < self.rhat_max:
-                rhat = split_rhat(take(rows))
+            rhat = split_rhat(take(rows))
             if not np.all(rhat < self.rhat_max):
                 held = int(np.nanargmax(rhat))
-                fails.append(f"R-hat {np.nanmax(rhat):.3f} >= {self.rhat_max}")
+                fails.append(f"R-hat {np.nanmax(rhat):.3f} >= {self.rhat_max} ({names[held]})")
         return Check(burn_in, ess, tau, rhat, acc, drifting, fails, held)
 
 
