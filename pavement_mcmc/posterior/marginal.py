@@ -44,6 +44,11 @@ from .map import ScaledResiduals, parameter_scales
 __all__ = ["MarginalGMRF", "MarginalMAP", "find_marginal_map", "gmrf_of"]
 
 
+#: the table's quadrature keeps the points of the log-gamma grid within e^-_DROP of an
+#: integrand's peak, found on every _COARSE-th point
+_DROP, _COARSE = 60.0, 25
+
+
 class MarginalGMRF:
     """Tabulated :math:`\\log F(S)`, :math:`E[\\gamma|S]`, :math:`Var[\\gamma|S]`.
 
@@ -87,14 +92,22 @@ class MarginalGMRF:
         u = np.arange(lo, hi + du, du)
         g = np.exp(u)
         logF, m1, var = (np.empty(S.size) for _ in range(3))
+        coarse = np.arange(0, u.size, _COARSE)
         for i in range(0, S.size, chunk):
-            f = self._log_integrand(u, S[i:i + chunk])
+            # the grid points where any of the chunk's integrands is within e^-_DROP of its
+            # peak, found on every _COARSE-th point and widened by two of those steps: the rest
+            # add below 1e-26 of the integral (the full grid cost Case C's table 0.26 s)
+            fc = self._log_integrand(u[coarse], S[i:i + chunk])
+            near = np.nonzero(np.any(fc > fc.max(axis=1, keepdims=True) - _DROP, axis=0))[0]
+            a = coarse[max(near[0] - 2, 0)] if near.size else 0
+            b = coarse[min(near[-1] + 2, coarse.size - 1)] + _COARSE if near.size else u.size
+            f = self._log_integrand(u[a:b], S[i:i + chunk])
             mx = f.max(axis=1, keepdims=True)
             w = np.exp(f - mx)
             z = w.sum(axis=1)
             logF[i:i + chunk] = mx[:, 0] + np.log(z * du)
-            e1 = (w @ g) / z
-            e2 = (w @ (g * g)) / z
+            e1 = (w @ g[a:b]) / z
+            e2 = (w @ (g[a:b] * g[a:b])) / z
             m1[i:i + chunk] = e1
             var[i:i + chunk] = np.maximum(e2 - e1 * e1, 1e-300)
         return logF, m1, var
