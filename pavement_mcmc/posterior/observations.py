@@ -174,6 +174,21 @@ class Temperatures(Observation):
         ok = np.isfinite(ll)
         return np.where(ok, ll, -np.inf), rmse, self.compiled_cotangent(model, T_nodes, z, ok)
 
+    def compiled_loglik(self, model, T_nodes):
+        """``(ll, rmse)`` of this stream alone by the compiled path, without the cotangent:
+        what :meth:`predict`, :meth:`whiten` and :func:`log_likelihood` give, to the bit (the
+        caller checks :meth:`compiled_applies`); None for a layout whose sum order is unknown."""
+        if T_nodes.transpose(1, 2, 0).flags.c_contiguous:  # the solver's buffer, sets innermost
+            pairwise = False
+        elif T_nodes.flags.c_contiguous:
+            pairwise = True
+        else:
+            return None
+        oi, ow = model.sensor_weights
+        ll, rmse, _ = temperature_terms(T_nodes, oi, ow, self.data, self.sigma, self.logdet,
+                                        self.size * _LOG_2PI, pairwise)
+        return ll, rmse
+
     def compiled_cotangent(self, model, T_nodes, z, ok):
         """d log-likelihood / d nodal temperatures of this stream from its whitened residuals
         ``z`` (:meth:`compiled_terms`); rows without ``ok`` get 0 (as :meth:`vjp`)."""

@@ -98,3 +98,21 @@ def test_compiled_temperatures_beside_a_plate_equal_generic_bitwise(tmp_path, mo
     ref = post.loglik_and_grad(th, "adjoint")
     for a, b in zip(ref, got, strict=True):
         assert np.array_equal(a, b)
+
+
+@pytest.mark.parametrize("case", ["caseA", "caseC"])
+def test_loglik_blobs_compiled_equals_numpy_path(case, monkeypatch):
+    """``LogPosterior.loglik_blobs`` (every sampler's log-posterior) by the compiled path gives
+    the NumPy path's log-likelihood and RMSE to the bit."""
+    pr = build_problem(load_case(REPO / "runs" / f"{case}.toml"))
+    post = pr.posterior
+    rng = np.random.default_rng(5)
+    x0 = pr.space.initial()
+    theta = x0 * rng.lognormal(0.0, 0.1, (9, x0.size))
+    ll, rmse = post.loglik_blobs(theta)
+    from pavement_mcmc.posterior.observations import Temperatures
+
+    monkeypatch.setattr(Temperatures, "compiled_loglik", lambda *a: None)
+    ll0, rmse0 = post.loglik_blobs(theta)
+    assert np.array_equal(ll, ll0) and np.array_equal(rmse, rmse0)
+    assert np.all(np.isfinite(ll))
