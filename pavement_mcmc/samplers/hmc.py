@@ -358,15 +358,15 @@ class HMCSampler(Sampler):
         """The pooled draws' covariance, 10 % towards the correlations of the metric it replaces."""
         self.n_metric += 1
         n, w1, w2 = self.win_n, self.win_1, self.win_2
-        d = self.idx.size
-        self.win_n, self.win_1, self.win_2 = 0.0, np.zeros(d), np.zeros((d, d))
-        if n < 2 * d:
+        self.win_n, self.win_1, self.win_2 = 0.0, np.zeros_like(w1), np.zeros_like(w2)
+        if n < 2 * w1.size:
             return
         mu = w1 / n
         cov = (w2 - n * np.outer(mu, mu)) / (n - 1.0)
         r = np.sqrt(np.diag(cov) / np.diag(self.M))  # the draws' sd over the metric's
         cov = 0.9 * cov + 0.1 * self.M * np.outer(r, r)
-        if np.all(np.isfinite(cov)) and np.all(np.linalg.eigvalsh(cov) > 0):
+        sd = np.sqrt(np.diag(cov))  # positive definite as a correlation matrix (scales 1e-3 to 1e6)
+        if np.all(np.isfinite(cov)) and np.all(np.linalg.eigvalsh(cov / np.outer(sd, sd)) > 0):
             self._set_metric(cov)
             # whitened gradients change with the metric; restart the step size search
             self.mu = float(self.log_eps + np.log(10.0))
