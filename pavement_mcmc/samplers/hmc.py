@@ -28,15 +28,14 @@ chain exact (Neal 2011, "MCMC using Hamiltonian dynamics", 5.5.1.5); compiled, o
 time (:mod:`.reflect`). The posterior is never evaluated outside the bounds.
 
 Adaptation (burn-in only, then frozen): ``eps`` by dual averaging towards an acceptance rate of
-``target_acceptance`` (default 0.8; Hoffman & Gelman 2014), and the metric ``Sigma`` in
-doubling windows (as Stan does): at adaptation step ``metric_at`` (default 50) from the pooled
-chains since step ``metric_skip`` (10), then at ``2 metric_at`` from those since (shrunk 10 %
-towards its diagonal; ``adapt_metric = False`` keeps the Laplace one); after each the dual
-averaging starts again for the new metric; ``metric_windows = 3`` adds one at ``4 metric_at``
-(the Göttingen 72-h window's ``runs/grass.toml`` uses it: 196k instead of 229k gradients for
-the base fit, 447-512k instead of 643-698k with ``surface_layer``, single seeds; on Case C it
-costs 167k instead of 114k). The loop adapts until the last window's end plus 50 steps
-(:meth:`HMCSampler.adapt_length`: 150 steps for two windows, 250 for three).
+``target_acceptance`` (default 0.8; Hoffman & Gelman 2014), and the metric ``Sigma`` in doubling
+windows (as Stan does): at adaptation step ``metric_at`` (default 50) from the pooled chains since
+step ``metric_skip`` (10), then at ``2 metric_at`` from those since (each 10 % towards the
+correlations of the metric it replaces; ``adapt_metric = False`` keeps the Laplace one); after each
+the dual averaging starts again for the new metric; ``metric_windows = 3`` adds one at
+``4 metric_at`` (the Göttingen 72-h window's ``runs/grass.toml`` uses it: 196k instead of 229k gradients
+for the base fit, 447-512k instead of 643-698k with ``surface_layer``, single seeds; on Case C it
+costs 167k instead of 114k). Adaptation ends 50 steps after the last window (:meth:`adapt_length`).
 
 Rough-scale moves (option ``rough_moves``, with a free gamma): after each trajectory, that many
 Metropolis moves scaling h's high-frequency part (:mod:`.rough`; one solve each, then one
@@ -355,17 +354,18 @@ class HMCSampler(Sampler):
         self.n_leapfrog = self._n_leapfrog(float(np.exp(self.log_eps)))
 
     def _metric_from_window(self) -> None:
-        """The pooled draws' covariance (shrunk 10 % to its diagonal) as the new metric."""
+        """The pooled draws' covariance, 10 % towards the correlations of the metric it replaces."""
         self.n_metric += 1
         n, w1, w2 = self.win_n, self.win_1, self.win_2
-        d = self.idx.size
-        self.win_n, self.win_1, self.win_2 = 0.0, np.zeros(d), np.zeros((d, d))
-        if n < 2 * d:
+        self.win_n, self.win_1, self.win_2 = 0.0, np.zeros_like(w1), np.zeros_like(w2)
+        if n < 2 * w1.size:
             return
         mu = w1 / n
         cov = (w2 - n * np.outer(mu, mu)) / (n - 1.0)
-        cov = 0.9 * cov + 0.1 * np.diag(np.diag(cov))
-        if np.all(np.isfinite(cov)) and np.all(np.linalg.eigvalsh(cov) > 0):
+        r = np.sqrt(np.diag(cov) / np.diag(self.M))  # the draws' sd over the metric's
+        cov = 0.9 * cov + 0.1 * self.M * np.outer(r, r)
+        sd = np.sqrt(np.diag(cov))  # positive definite as a correlation matrix (scales 1e-3 to 1e6)
+        if np.all(np.isfinite(cov)) and np.all(np.linalg.eigvalsh(cov / np.outer(sd, sd)) > 0):
             self._set_metric(cov)
             # whitened gradients change with the metric; restart the step size search
             self.mu = float(self.log_eps + np.log(10.0))

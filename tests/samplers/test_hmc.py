@@ -438,8 +438,8 @@ def test_laplace_metric_at_a_bound_takes_the_exponential_scale():
     """A Gaussian whose mass lies far below the bound p0 >= a (a = mean + 4 sd), given its
     exact Laplace approximation at the constrained mode: the posterior of p0 is ~exponential
     of scale S00 / (a - m0), 4.4x narrower than the curvature's sd, which the start metric
-    used to take. Now the metric's sd of p0 is the truncated posterior's within 25 %, its
-    correlations are dropped, and the other coordinates keep their Laplace sd."""
+    used to take. Now the metric's sd of p0 is the truncated posterior's within 25 % (the other
+    coordinates' regression on it: tests/samplers/test_hmc_bound_metric.py)."""
     post, a = _truncated(cut_sd=4.0)
     m, S = post.mean, post.cov
     mode = m + S[:, 0] / S[0, 0] * (a - m[0])  # the mode on the bound p0 = a
@@ -451,8 +451,6 @@ def test_laplace_metric_at_a_bound_takes_the_exponential_scale():
     tn = stats.truncnorm((a - m[0]) / sd0, np.inf, loc=m[0], scale=sd0)
     assert sd0 / tn.std() > 4  # the curvature's sd, the metric before
     assert abs(np.sqrt(M[0, 0]) / tn.std() - 1) < 0.25, (np.sqrt(M[0, 0]), tn.std())
-    np.testing.assert_allclose(M[0, 1:], 0.0, atol=1e-12)
-    np.testing.assert_allclose(np.sqrt(np.diag(M))[1:], np.sqrt(np.diag(S))[1:], rtol=1e-6)
 
 
 def test_the_adaptation_lasts_until_the_last_metric_window_and_50_steps_after():
