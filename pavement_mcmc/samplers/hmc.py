@@ -114,6 +114,8 @@ class HMCSampler(Sampler):
             self._set_hpos()
             mode = tg.mmap.theta
             cov = self._bounded(mode, np.array(tg.mmap.cov))
+            if self.options.rough_moves:
+                self.rough = RoughScale.above(self.hcols.size, self.options.rough_cut)
         else:
             lap = laplace
             if lap is None:
@@ -131,9 +133,7 @@ class HMCSampler(Sampler):
         z = float(np.median(mode[i][at0] / sd[at0])) if at0.any() else np.inf
         self.options, self.chosen = resolve(self.options, n_params=i.size, n_chains=self.n_chains,
                                             n_at0=int(at0.sum()), n_near=int((at0 & ~above).sum()),
-                                            z_median=z, free_gamma=self.marginal)
-        if self.marginal and self.options.rough_moves:
-            self.rough = RoughScale.above(self.hcols.size, self.options.rough_cut)
+                                            z_median=z)
         self.tlog = np.where(self.options.log_positive & at0 & above, LOG,  # coordinate kinds
                              np.where(self.options.sqrt_at_zero & at0 & ~above, SQRT, 0))
         self.shift = np.sqrt(np.diag(cov)) * np.select(  # the c of sqrt(x + c) and log(x + c)

@@ -22,13 +22,6 @@ MAP and its Laplace covariance, from three numbers of the problem:
   median 4.9, only 5 of 72 near 0) needed 920 steps, 314k gradients in linear coordinates,
   525 steps, 174k with this rule (546, 173k with the hand options of ``runs/desert.toml``);
   Case C's median is 9.1, the Göttingen window's 1.3.
-- **rough-scale moves** (``rough_moves``, with a free gamma only, :mod:`.rough`):
-  :data:`ROUGH_AUTO` when the coordinates stay linear, none when h is piled at 0 or skewed
-  (there a scale of its rough part leaves the bounds: the Göttingen window tuned their step to
-  0.007). Measured with checks every 5 %, CPU to the stopping rule: Case C seeds 1-6 34.9 s
-  with 4 moves against 46.4 s without (525-640 steps against 819-1550); the grass and desert
-  72-h windows (log/sqrt coordinates) seeds 1-3 52.8 / 40.4 s with against 47.5 / 38.3 s
-  without.
 - **metric windows**: the second window pools ``n_chains * metric_at`` draws (800 with 16
   chains); with fewer than :data:`DRAWS_PER_DIM` of them per parameter (more than 133
   parameters) its covariance is too noisy to freeze, and a third window (``4 metric_at``) is
@@ -54,10 +47,8 @@ PILED_MIN = 3
 SKEWED_MEDIAN, SKEWED_MIN = 6.0, 10
 #: metric windows: pooled draws per parameter below which a third window is added
 DRAWS_PER_DIM = 6
-#: rough-scale moves per trajectory when they are on (a free gamma, h away from its bound)
-ROUGH_AUTO = 4
 #: the values an ``"auto"`` option took before the rule existed (a resumed old run keeps them)
-LEGACY = {"log_positive": False, "sqrt_at_zero": False, "metric_windows": 2, "rough_moves": 0}
+LEGACY = {"log_positive": False, "sqrt_at_zero": False, "metric_windows": 2}
 
 
 def _auto():
@@ -92,8 +83,7 @@ class HMCOptions:
         parameter (0: ``log x``, whose infinite tail towards 0 traps chains: :mod:`.coords`).
     rough_moves : with a free smoothness precision (Case C), scale moves of h's rough part after
         each trajectory (:mod:`.rough`; one solve each, and one gradient for a chain that moved);
-        0: none. ``"auto"`` (default): :data:`ROUGH_AUTO` in linear coordinates, else 0
-        (:func:`resolve`).
+        0: none.
     rough_cut : the rough part: the DCT modes ``k >= rough_cut N`` of the N values of h.
     """
 
@@ -109,14 +99,14 @@ class HMCOptions:
     sqrt_at_zero: bool | str = _auto()
     sqrt_shift: float = 0.25
     log_shift: float = 1.0
-    rough_moves: int | str = _auto()
+    rough_moves: int = 0
     rough_cut: float = 0.25
 
     def __post_init__(self):
         for k in ("sqrt_shift", "log_shift"):
             if not getattr(self, k) >= 0.0:
                 raise ValueError(f"hmc option {k} must be >= 0, got {getattr(self, k)}")
-        if self.rough_moves != AUTO and not (isinstance(self.rough_moves, int) and self.rough_moves >= 0):
+        if not (isinstance(self.rough_moves, int) and self.rough_moves >= 0):
             raise ValueError(f"hmc option rough_moves must be an integer >= 0, got {self.rough_moves!r}")
         if not 0.0 < self.rough_cut < 1.0:
             raise ValueError(f"hmc option rough_cut must lie in (0, 1), got {self.rough_cut}")
@@ -127,8 +117,7 @@ class HMCOptions:
 
 
 def resolve(options: HMCOptions, *, n_params: int, n_chains: int, n_at0: int,
-            n_near: int, z_median: float = float("inf"),
-            free_gamma: bool = False) -> tuple[HMCOptions, dict]:
+            n_near: int, z_median: float = float("inf")) -> tuple[HMCOptions, dict]:
     """The options with every ``"auto"`` one decided, and what was chosen.
 
     Parameters
@@ -139,7 +128,6 @@ def resolve(options: HMCOptions, *, n_params: int, n_chains: int, n_at0: int,
     n_at0 : parameters bounded below by 0.
     n_near : of those, the ones whose mode lies within one Laplace sd of 0.
     z_median : the median of their mode / Laplace sd (default: none is skewed).
-    free_gamma : the target integrates a free smoothness precision out (rough-scale moves apply).
 
     Returns
     -------
@@ -153,12 +141,9 @@ def resolve(options: HMCOptions, *, n_params: int, n_chains: int, n_at0: int,
     skewed = n_at0 >= SKEWED_MIN and z_median < SKEWED_MEDIAN
     draws = n_chains * options.metric_at
     few = draws < DRAWS_PER_DIM * n_params
-    rough = ROUGH_AUTO if free_gamma and not (piled or skewed) else 0
     rule = {"log_positive": piled or skewed, "sqrt_at_zero": piled or skewed,
-            "metric_windows": 3 if few else 2, "rough_moves": rough}
-    decided = {k: rule[k] for k in auto}
-    # rough-scale moves only exist with a free gamma: not reported otherwise
-    chosen = {k: v for k, v in decided.items() if k != "rough_moves" or free_gamma}
+            "metric_windows": 3 if few else 2}
+    chosen = {k: rule[k] for k in auto}
     why = []
     if {"log_positive", "sqrt_at_zero"} & set(auto):
         coords = ("sqrt for those, log for the others" if piled else
@@ -169,14 +154,11 @@ def resolve(options: HMCOptions, *, n_params: int, n_chains: int, n_at0: int,
                       f"{SKEWED_MEDIAN:g}): sqrt for those, log for the others")
         why.append(f"{n_near} of {n_at0} parameters bounded at 0 have their mode within a "
                    f"Laplace sd of it; {coords}")
-    if "rough_moves" in auto and free_gamma:
-        why.append(f"rough-scale moves of h (with a free gamma): {chosen['rough_moves']} a "
-                   f"trajectory ({'h piled at 0 or skewed' if piled or skewed else 'linear coordinates'})")
     if "metric_windows" in auto:
         why.append(f"{n_chains} chains x {options.metric_at} steps = {draws / n_params:.0f} "
                    f"draws per parameter in a metric window: {chosen['metric_windows']} windows "
                    f"(3 below {DRAWS_PER_DIM})")
-    return replace(options, **decided), ({**chosen, "why": "; ".join(why)} if chosen else {})
+    return replace(options, **chosen), {**chosen, "why": "; ".join(why)}
 
 
 def restored(options: HMCOptions, chosen: dict | None) -> HMCOptions:

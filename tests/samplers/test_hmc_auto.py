@@ -191,15 +191,3 @@ def test_daily_grass_windows_move_kappa_c_and_the_plate_factor_as_logs(grass_csv
                     options=cfg.sampler["options"])
     s.prepare()
     assert list(s.tlog) == [LOG, LOG, LOG]
-
-
-@pytest.mark.parametrize("n_near, z_median, free_gamma, rough", [
-    (9, 9.1, True, 4),     # Case C: linear coordinates, a free gamma -> rough-scale moves
-    (65, 1.3, True, 0),    # the Goettingen window: h piled at 0 -> none (their step tunes to 0.007)
-    (5, 4.9, True, 0),     # the desert window: skewed -> none
-    (9, 9.1, False, 0)])   # no free gamma: nothing to move, and not reported
-def test_rough_moves_from_the_coordinates_and_a_free_gamma(n_near, z_median, free_gamma, rough):
-    opts, chosen = resolve(HMCOptions(), n_params=114, n_chains=16, n_at0=112, n_near=n_near,
-                           z_median=z_median, free_gamma=free_gamma)
-    assert opts.rough_moves == rough
-    assert ("rough_moves" in chosen) == free_gamma
