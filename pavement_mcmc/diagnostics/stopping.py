@@ -33,8 +33,9 @@ MIN_KEPT_ROWS = 8
 class Check:
     """The outcome of :meth:`StoppingRule.check`: the burn-in (rows), per-parameter ESS, tau (in
     rows) and split-R-hat (``nan`` where not evaluated), the kept acceptance, the drift flag and
-    the failed criteria (empty: the rule is met); ``held_by``, the parameter that failed the ESS
-    (the smallest) or else the R-hat criterion (the largest), None when neither failed."""
+    the failed criteria (empty: the rule is met); ``held_by``, the parameter that failed: the
+    one a quick check (``first``) failed on, else the largest R-hat when R-hat failed, else the
+    smallest ESS when the ESS failed; None when neither failed."""
 
     burn_in: int
     ess: np.ndarray
@@ -93,8 +94,9 @@ class StoppingRule:
               full: bool = True, first: int | None = None) -> Check:
         """Apply the rule to stored rows.
 
-        ``chain``: (n_rows, n_chains, n_params) array, or an object whose ``take(idx)`` returns
-        the rows at increasing indices (the run loop's block list). ``logp``, ``accepted``:
+        ``chain``: (n_rows, n_chains, n_params) array, or an object whose ``take(idx, cols=None)``
+        returns the rows at increasing indices, of the parameters ``cols`` if given (the run
+        loop's block list). ``logp``, ``accepted``:
         (n_rows, n_chains). The estimates use the kept chain thinned to at most
         :data:`TAU_ROWS` rows (tau, ESS, drift) and :data:`RHAT_ROWS` rows (split-R-hat; the
         rank normalisation sorts every draw). With ``full=False`` the check stops at the first

@@ -205,7 +205,8 @@ class LogPosterior:
             return self._loglik_and_grad_fd(theta, fd_step)
         p = self.space.expand(theta)
         model = self.model
-        if self._plain is None:
+        if self._plain is None or (self._plain and (self._plain.model is not model
+                                                    or self._plain.temps is not self.streams[0])):
             self._plain = PlainGradient(model, self.streams[0]) if PlainGradient.applies(model) else False
         plain = self._plain(p) if self._plain and len(self.streams) == 1 else None
         if plain is not None:  # the same numbers without the generic glue

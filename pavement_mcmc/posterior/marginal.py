@@ -156,8 +156,13 @@ class MarginalGMRF:
         :meth:`log_f` and :meth:`mean_gamma` give, to the bit, in two compiled calls
         (:mod:`.marginal_compiled`); the gradient of log F in h is ``-E[gamma|S] D^T D h``."""
         H = np.asarray(H, dtype=float)
-        if not (H.flags.c_contiguous or H.flags.f_contiguous) or H.ndim != 2:  # NumPy's order unknown
-            H = np.ascontiguousarray(H)
+        if not (H.flags.c_contiguous or H.flags.f_contiguous) or H.ndim != 2:  # NumPy's order unknown:
+            dh = np.diff(H, axis=-1)                                           # NumPy's own steps
+            DtDh = np.zeros_like(H)
+            DtDh[..., :-1] -= dh
+            DtDh[..., 1:] += dh
+            S = np.sum(dh * dh, axis=-1)
+            return self.log_f(S), self.mean_gamma(S), DtDh
         S, DtDh = _mc.rows(H, H.flags.c_contiguous)
         with np.errstate(divide="ignore"):
             ls = np.log(np.maximum(S, 0.0))

@@ -178,10 +178,10 @@ class Temperatures(Observation):
         """``(ll, rmse)`` of this stream alone by the compiled path, without the cotangent:
         what :meth:`predict`, :meth:`whiten` and :func:`log_likelihood` give, to the bit (the
         caller checks :meth:`compiled_applies`); None for a layout whose sum order is unknown."""
-        if T_nodes.transpose(1, 2, 0).flags.c_contiguous:  # the solver's buffer, sets innermost
+        if T_nodes.flags.c_contiguous:  # first: one set is both layouts, and NumPy's residual
+            pairwise = True             # row of one set is summed pairwise
+        elif T_nodes.transpose(1, 2, 0).flags.c_contiguous:  # the solver's buffer, sets innermost
             pairwise = False
-        elif T_nodes.flags.c_contiguous:
-            pairwise = True
         else:
             return None
         oi, ow = model.sensor_weights

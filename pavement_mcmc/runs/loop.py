@@ -160,6 +160,7 @@ def run_sampler(
     # a kept chain shorter than SKIP_FRACTION x min_tau_lengths x (last tau_max) cannot pass:
     # such a check is skipped (the skip depends on the chain only, so runs stay reproducible)
     hint = loop_state.get("hint", [0, 0.0])  # [burn-in rows, tau_max] of the last check
+    min_ess = None  # the smallest ESS the last checks estimated (the progress line's)
     first = loop_state.get("first")  # the parameter that held the last check (its ESS or R-hat)
     while True:
         reason = _budget_out(n_steps, max_steps, max_seconds, time.perf_counter() - t0)
@@ -186,13 +187,14 @@ def run_sampler(
         if due and n_steps >= min_steps:
             check = rule.check(rows, *rows.small(), n_adapt_rows, burn_rows, names, full=False,
                                first=first)
-            hint, converged = _hint(check), not check.failures
+            hint, converged = _hint(check, hint), not check.failures
+            min_ess = _min_ess(check, min_ess)
             first = check.held_by if check.held_by is not None else first
             reason = rule.met_text() if converged else reason
         if callback is not None:
             callback({"n_steps": n_steps, "n_evals": n_evals, "n_adapt": n_adapt,
                       "max_steps": max_steps, "adapting": adapt,
-                      **_progress(rule, check, b, time.perf_counter() - t0)})
+                      **_progress(rule, min_ess, b, time.perf_counter() - t0)})
         if converged:
             break
     if not converged and n_steps >= n_adapt and rows.n:
@@ -204,15 +206,31 @@ def run_sampler(
                     time.perf_counter() - t0, n_adapt_rows)
 
 
-def _progress(rule: StoppingRule, check: Check | None, b, elapsed: float) -> dict:
+def _progress(rule: StoppingRule, min_ess: float | None, b, elapsed: float) -> dict:
     """The callback's view of the last block and check (min ESS against the target)."""
     return {"ess_target": rule.ess_target, "acceptance": float(b.accepted.mean()),
-            "min_ess": None if check is None else float(np.nanmin(check.ess)), "elapsed": elapsed}
+            "min_ess": min_ess, "elapsed": elapsed}
 
 
-def _hint(check: Check) -> list:
-    """[burn-in rows, tau_max] of a check: the next check is skipped while it cannot pass."""
-    tau_max = float(np.nanmax(check.tau)) if np.isfinite(check.tau).any() else float("inf")
+def _min_ess(check: Check, last: float | None) -> float | None:
+    """The smallest ESS a check estimated: of every parameter, or of the one a quick check
+    failed on (an upper bound of the smallest); after a quick check that failed on R-hat, the
+    last one known."""
+    if not np.isnan(check.ess).any():
+        return float(np.min(check.ess))
+    if check.failures and check.failures[0].startswith("ESS") and check.held_by is not None:
+        return float(check.ess[check.held_by])
+    return last
+
+
+def _hint(check: Check, last: list) -> list:
+    """[burn-in rows, tau_max] of a check: the next check is skipped while it cannot pass. A
+    quick check estimated one parameter's tau: the larger of it and the last known tau_max."""
+    if np.isnan(check.tau).any():
+        tau = check.tau[~np.isnan(check.tau)]
+        tau_max = max(float(np.max(tau)) if tau.size else 0.0, float(last[1]))
+    else:
+        tau_max = float(np.max(check.tau))
     return [int(check.burn_in), tau_max if np.isfinite(tau_max) else 0.0]
 
 

@@ -47,3 +47,20 @@ def test_first_parameter_failing_r_hat_ends_the_check_with_only_its_r_hat():
     assert quick.held_by == 4 and quick.failures == full.failures
     assert np.isnan(quick.rhat[[0, 1, 2, 3, 5]]).all()
     np.testing.assert_allclose(quick.rhat[4], full.rhat[4], rtol=1e-12)
+
+
+def test_progress_and_skip_hint_after_a_quick_check():
+    """After a quick check the progress line shows no parameter's ESS as the minimum unless it
+    failed on it, and the skip hint keeps the last known tau_max (not one parameter's)."""
+    from pavement_mcmc.runs.loop import _hint, _min_ess
+
+    x, lp, acc = _chains(n=3000, phi=0.0)
+    x[:, :4, 4] += 0.5  # parameter 4 fails R-hat only
+    rule = StoppingRule(ess_target=100.0, min_tau_lengths=5.0)
+    quick = rule.check(x, lp, acc, 0, burn_in=0, full=False, first=4)
+    assert quick.failures[0].startswith("R-hat")
+    assert _min_ess(quick, 76.0) == 76.0
+    assert _hint(quick, [0, 209.6])[1] == 209.6
+    x2, lp2, acc2 = _chains()
+    q2 = StoppingRule(ess_target=1000.0).check(x2, lp2, acc2, 0, burn_in=0, full=False, first=2)
+    assert _min_ess(q2, None) == q2.ess[2] < 1000

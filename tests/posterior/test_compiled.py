@@ -109,10 +109,11 @@ def test_loglik_blobs_compiled_equals_numpy_path(case, monkeypatch):
     rng = np.random.default_rng(5)
     x0 = pr.space.initial()
     theta = x0 * rng.lognormal(0.0, 0.1, (9, x0.size))
-    ll, rmse = post.loglik_blobs(theta)
+    got = [post.loglik_blobs(theta), post.loglik_blobs(theta[:1])]  # one set: both layouts
     from pavement_mcmc.posterior.observations import Temperatures
 
     monkeypatch.setattr(Temperatures, "compiled_loglik", lambda *a: None)
-    ll0, rmse0 = post.loglik_blobs(theta)
-    assert np.array_equal(ll, ll0) and np.array_equal(rmse, rmse0)
-    assert np.all(np.isfinite(ll))
+    want = [post.loglik_blobs(theta), post.loglik_blobs(theta[:1])]
+    for (ll, rmse), (ll0, rmse0) in zip(got, want, strict=True):
+        assert np.array_equal(ll, ll0) and np.array_equal(rmse, rmse0)
+        assert np.all(np.isfinite(ll))

@@ -40,3 +40,14 @@ def test_terms_gradient_is_the_derivative_of_log_f():
         e[j] = eps
         num = (tab.terms((h + e)[None])[0] - tab.terms((h - e)[None])[0]) / (2 * eps)
         assert num[0] == pytest.approx(-mg[0] * Z[0, j], rel=1e-6, abs=1e-9)
+
+
+def test_terms_of_a_strided_view_follow_numpy():
+    """A view that is neither C- nor F-contiguous (NumPy's summation order unknown to the
+    compiled path) takes NumPy's own steps."""
+    tab = MarginalGMRF(40, Rayleigh(2.22))
+    big = np.asfortranarray(np.abs(np.random.default_rng(6).normal(10.0, 5.0, (16, 80))))
+    H = big[:, ::2]
+    assert not (H.flags.c_contiguous or H.flags.f_contiguous)
+    for w, g in zip(_numpy_terms(tab, H), tab.terms(H), strict=True):
+        assert np.array_equal(w, g)

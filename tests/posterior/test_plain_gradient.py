@@ -63,3 +63,21 @@ def test_a_set_the_solver_refuses_still_raises_its_error():
     with pytest.raises(ValueError, match="positive"):
         pr.posterior.loglik_and_grad(theta)
     assert pr.posterior._plain  # it was tried, and handed the set over
+
+
+def test_a_replaced_temperature_stream_is_read():
+    """The plain path reads the stream the posterior holds now, not the one it was built with."""
+    from pavement_mcmc.posterior.observations import Temperatures
+
+    pr = _problem("caseC")
+    post = pr.posterior
+    theta = _sets(pr.space, 16, seed=4)
+    post.loglik_and_grad(theta)  # the plain path built for the first stream
+    new = Temperatures(post.model.meas)
+    new.sigma = 0.5
+    post.streams[0] = new
+    ll, g, _ = post.loglik_and_grad(theta)  # the path kept from the first call, if any
+    assert post._plain and post._plain.temps is new
+    post._plain = False
+    ll0, g0, _ = post.loglik_and_grad(theta)
+    assert np.array_equal(ll, ll0) and np.array_equal(g, g0)
