@@ -109,11 +109,13 @@ class Coords:
         lo, hi = np.array(lo, float), np.array(hi, float)
         r, c = self.r, self.c
         low_lg = np.log(np.maximum(np.zeros(np.count_nonzero(self.lg)) + c, _TINY))
-        for _ in range(8):  # log(x + c): the first float that maps back to x >= 0
-            under = np.exp(low_lg) - c < 0.0
+        for _ in range(8):  # log(x + c): the first float that maps back to x > 0 (a kappa or C
+            under = np.exp(low_lg) - c <= 0.0  # reflected onto x = 0 ended a fit: the solver refuses it)
             if not under.any():
                 break
-            low_lg[under] = np.nextafter(low_lg[under], np.inf)
+            # one ulp of w, at least the relative ulp of x + c (near w = 0, e.g. c = 1, the next
+            # floats are denormals that exp maps back to c)
+            low_lg[under] += np.maximum(np.spacing(np.abs(low_lg[under])), 2.3e-16)
         for mask, fwd, back, low in ((self.lg, lambda v: np.log(v + c), lambda v: np.exp(v) - c,
                                       low_lg),
                                      (self.sq, lambda v: np.sqrt(v + r * r) - r,

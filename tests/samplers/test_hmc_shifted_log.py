@@ -19,7 +19,7 @@ from pavement_mcmc.storage import MemoryStore
 
 
 def test_shifted_log_map_bounds_and_jacobian():
-    """``w = log(x + c)``: the inverse map, the lower bound (maps back to x >= 0, within a
+    """``w = log(x + c)``: the inverse map, the lower bound (maps back to x > 0, within a
     few ulp of 0), the log-density gaining ``w`` and the gradient ``(x + c) df/dx + 1``
     against central differences of ``f(x(w)) + log dx/dw``, and the delta-method metric."""
     c = np.array([0.7, 0.0])
@@ -30,7 +30,12 @@ def test_shifted_log_map_bounds_and_jacobian():
     np.testing.assert_allclose(co.to_x(w), x, rtol=1e-14)
     lo, hi = co.bounds(np.array([0.0, 0.0, -np.inf]), np.array([np.inf, 9.0, np.inf]))
     x_lo = co.to_x(lo[None])[0]
-    assert 0.0 <= x_lo[0] < 1e-15 and lo[1] == np.log(1e-300) and co.to_x(hi[None])[0, 1] <= 9.0
+    assert 0.0 < x_lo[0] < 1e-15 and lo[1] == np.log(1e-300) and co.to_x(hi[None])[0, 1] <= 9.0
+    # the lower bound maps back to x > 0, never onto 0 (a kappa reflected onto 0 ended a daily
+    # desert fit: the solver refuses it); c = 1 has exp(log c) - c == 0 exactly
+    cs = np.r_[1.0, 0.5, 2.0, np.random.default_rng(0).lognormal(0.0, 3.0, 2000)]
+    lo_c, _ = Coords(np.full(cs.size, LOG), cs).bounds(np.zeros(cs.size), np.full(cs.size, np.inf))
+    assert np.all(np.exp(lo_c) - cs > 0.0)
 
     def f_x(x):  # a smooth log-density in x and its gradient
         return -np.sum((x - 1.0) ** 2 / (1.0 + x * x), axis=1), \
