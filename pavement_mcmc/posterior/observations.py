@@ -160,11 +160,8 @@ class Temperatures(Observation):
         summation order is only known for those). Beside other streams (``alone=False``):
         ``(z, rmse)``, the whitened residuals and the RMSE, whose log-likelihood and
         cotangent (:meth:`compiled_cotangent`) need every stream's rows."""
-        if T_nodes.transpose(1, 2, 0).flags.c_contiguous:  # the solver's buffer, sets innermost
-            pairwise = False
-        elif T_nodes.flags.c_contiguous:
-            pairwise = True
-        else:
+        pairwise = self._pairwise(T_nodes)
+        if pairwise is None:
             return None
         oi, ow = model.sensor_weights
         ll, rmse, z = temperature_terms(T_nodes, oi, ow, self.data, self.sigma, self.logdet,
@@ -174,15 +171,24 @@ class Temperatures(Observation):
         ok = np.isfinite(ll)
         return np.where(ok, ll, -np.inf), rmse, self.compiled_cotangent(model, T_nodes, z, ok)
 
+    @staticmethod
+    def _pairwise(T_nodes) -> bool | None:
+        """How NumPy sums the squared residuals of nodal temperatures in this layout: pairwise
+        for C order (one set is also the solver's layout, and NumPy's residual row of one set
+        is summed pairwise), in sequence for the solver's buffer (sets innermost); None when
+        neither."""
+        if T_nodes.flags.c_contiguous:
+            return True
+        if T_nodes.transpose(1, 2, 0).flags.c_contiguous:
+            return False
+        return None
+
     def compiled_loglik(self, model, T_nodes):
         """``(ll, rmse)`` of this stream alone by the compiled path, without the cotangent:
         what :meth:`predict`, :meth:`whiten` and :func:`log_likelihood` give, to the bit (the
         caller checks :meth:`compiled_applies`); None for a layout whose sum order is unknown."""
-        if T_nodes.flags.c_contiguous:  # first: one set is both layouts, and NumPy's residual
-            pairwise = True             # row of one set is summed pairwise
-        elif T_nodes.transpose(1, 2, 0).flags.c_contiguous:  # the solver's buffer, sets innermost
-            pairwise = False
-        else:
+        pairwise = self._pairwise(T_nodes)
+        if pairwise is None:
             return None
         oi, ow = model.sensor_weights
         ll, rmse, _ = temperature_terms(T_nodes, oi, ow, self.data, self.sigma, self.logdet,
