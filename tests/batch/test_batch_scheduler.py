@@ -33,22 +33,51 @@ class Cluster:
     """``dask scheduler`` and ``dask worker --nworkers 2 --nthreads 1`` on 127.0.0.1."""
 
     def __init__(self, logs: Path) -> None:
+        self._pick_port()
+        self.logs = logs
+        self.scheduler = self.workers = None
+
+    def _pick_port(self) -> None:
         s = socket.socket()
         s.bind(("127.0.0.1", 0))
         self.port = s.getsockname()[1]
         s.close()
         self.address = f"tcp://127.0.0.1:{self.port}"
-        self.logs = logs
-        self.scheduler = self.workers = None
+
+    def _listening(self, timeout: float = 60.0) -> bool:
+        """Wait until the scheduler accepts connections; False if it exited first."""
+        end = time.monotonic() + timeout
+        while time.monotonic() < end:
+            if self.scheduler.poll() is not None:
+                return False
+            try:
+                socket.create_connection(("127.0.0.1", self.port), timeout=1.0).close()
+                return True
+            except OSError:
+                time.sleep(0.2)
+        return False
 
     def _start(self, *args: str) -> subprocess.Popen:
         log = open(self.logs / f"{args[0]}.log", "a")  # noqa: SIM115 - the process keeps it
         return subprocess.Popen([str(DASK), *args], env=ENV, stdout=log, stderr=subprocess.STDOUT,
                                 start_new_session=True)
 
-    def start_scheduler(self) -> None:
-        self.scheduler = self._start("scheduler", "--host", "127.0.0.1", "--port", str(self.port),
-                                     "--no-dashboard")
+    def start_scheduler(self, new_port: bool = True) -> None:
+        """Start it and wait until it listens. The port was free when picked, but another
+        process (the embedded cluster of ``reference``) may take it before the scheduler binds
+        it ("Address already in use" made this test flaky): then another port, when allowed."""
+        for _ in range(5):
+            self.scheduler = self._start("scheduler", "--host", "127.0.0.1", "--port",
+                                         str(self.port), "--no-dashboard")
+            if self._listening():
+                return
+            if self.scheduler.poll() is None:
+                os.killpg(self.scheduler.pid, signal.SIGKILL)
+            self.scheduler.wait()
+            if not new_port:
+                break
+            self._pick_port()
+        raise RuntimeError(f"dask scheduler did not start; see {self.logs / 'scheduler.log'}")
 
     def start_workers(self) -> None:
         self.workers = self._start("worker", self.address, "--nworkers", "2", "--nthreads", "1",
@@ -67,7 +96,7 @@ class Cluster:
 
     def restart(self) -> None:
         """What the cluster's operator does: a scheduler and workers at the same address."""
-        self.start_scheduler()
+        self.start_scheduler(new_port=False)
         self.start_workers()
 
     def stop(self) -> None:
