@@ -160,40 +160,36 @@ class Temperatures(Observation):
         summation order is only known for those). Beside other streams (``alone=False``):
         ``(z, rmse)``, the whitened residuals and the RMSE, whose log-likelihood and
         cotangent (:meth:`compiled_cotangent`) need every stream's rows."""
-        pairwise = self._pairwise(T_nodes)
-        if pairwise is None:
+        terms = self._compiled(model, T_nodes)
+        if terms is None:
             return None
-        oi, ow = model.sensor_weights
-        ll, rmse, z = temperature_terms(T_nodes, oi, ow, self.data, self.sigma, self.logdet,
-                                        self.size * _LOG_2PI, pairwise)
+        ll, rmse, z, pairwise = terms
         if not alone:  # in the layout NumPy's whiten would give (it decides the sum's order)
             return (z if pairwise else np.asfortranarray(z)), rmse
         ok = np.isfinite(ll)
         return np.where(ok, ll, -np.inf), rmse, self.compiled_cotangent(model, T_nodes, z, ok)
 
-    @staticmethod
-    def _pairwise(T_nodes) -> bool | None:
-        """How NumPy sums the squared residuals of nodal temperatures in this layout: pairwise
-        for C order (one set is also the solver's layout, and NumPy's residual row of one set
-        is summed pairwise), in sequence for the solver's buffer (sets innermost); None when
-        neither."""
+    def _compiled(self, model, T_nodes):
+        """``(ll, rmse, z, pairwise)`` by :func:`.compiled.temperature_terms`, summing the
+        squares as NumPy does for this layout: pairwise for C order (one set is also the
+        solver's layout, and NumPy sums a one-set residual row pairwise), in sequence for the
+        solver's buffer (sets innermost); None for any other layout."""
         if T_nodes.flags.c_contiguous:
-            return True
-        if T_nodes.transpose(1, 2, 0).flags.c_contiguous:
-            return False
-        return None
+            pairwise = True
+        elif T_nodes.transpose(1, 2, 0).flags.c_contiguous:
+            pairwise = False
+        else:
+            return None
+        oi, ow = model.sensor_weights
+        return (*temperature_terms(T_nodes, oi, ow, self.data, self.sigma, self.logdet,
+                                   self.size * _LOG_2PI, pairwise), pairwise)
 
     def compiled_loglik(self, model, T_nodes):
         """``(ll, rmse)`` of this stream alone by the compiled path, without the cotangent:
         what :meth:`predict`, :meth:`whiten` and :func:`log_likelihood` give, to the bit (the
         caller checks :meth:`compiled_applies`); None for a layout whose sum order is unknown."""
-        pairwise = self._pairwise(T_nodes)
-        if pairwise is None:
-            return None
-        oi, ow = model.sensor_weights
-        ll, rmse, _ = temperature_terms(T_nodes, oi, ow, self.data, self.sigma, self.logdet,
-                                        self.size * _LOG_2PI, pairwise)
-        return ll, rmse
+        terms = self._compiled(model, T_nodes)
+        return None if terms is None else terms[:2]
 
     def compiled_cotangent(self, model, T_nodes, z, ok):
         """d log-likelihood / d nodal temperatures of this stream from its whitened residuals
