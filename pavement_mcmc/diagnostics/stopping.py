@@ -107,7 +107,7 @@ class StoppingRule:
         cost one parameter's autocorrelation or ranks instead of all of them (Case C: 115).
         Where it passes, every parameter is estimated, so the decision is the full check's.
         """
-        take = (lambda idx, col=None: chain[idx] if col is None else chain[idx][..., col]) \
+        take = (lambda idx, col=None: chain[idx] if col is None else chain[:, :, col][idx]) \
             if isinstance(chain, np.ndarray) else chain.take
         if burn_in is None:
             rest = logp[n_adapt_rows:]

@@ -74,8 +74,8 @@ class PlainGradient:
         # Model.coefficients' arrays, then solver._check's refusals (the generic path raises)
         kappa = np.repeat(kappa1[:, None], n - 1, axis=1)
         C = np.repeat(C1[:, None], n, axis=1)
-        if not (_fwd._all_finite(kappa) and _fwd._all_finite(C) and _fwd._all_finite(h)
-                and kappa1.min() > 0 and C1.min() > 0):
+        if not (_fwd._all_finite(kappa1) and _fwd._all_finite(C1) and _fwd._all_finite(h)
+                and kappa1.min() > 0 and C1.min() > 0):  # (their repeats: the same values)
             return None
         ws = self._workspace(kappa, C, h)
         if not ws:

@@ -218,8 +218,9 @@ def _min_ess(check: Check, last: float | None) -> float | None:
     last one known."""
     if not np.isnan(check.ess).any():
         return float(np.min(check.ess))
-    if check.failures and check.failures[0].startswith("ESS") and check.held_by is not None:
-        return float(check.ess[check.held_by])
+    j = check.held_by
+    if j is not None and np.isnan(check.rhat[j]):  # a quick check ended by that one's ESS
+        return float(check.ess[j])
     return last
 
 
