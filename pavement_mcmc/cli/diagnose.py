@@ -12,7 +12,7 @@ import sys
 import textwrap
 from pathlib import Path
 
-from ..criticism.entries import DATA_THRESHOLD, FORECAST_THRESHOLD
+from ..criticism.entries import DATA_THRESHOLD, FORECAST_THRESHOLD, LOSO_NONE
 from ..criticism.ranking import finer_h_spec
 from ..criticism.verdict import headline
 from ..physics.hbasis import FINER_H
@@ -93,13 +93,15 @@ def _candidates(rk) -> list[str]:
         + f"{rule}, or it brings an impossible fit back into range; "
         "~ prior-driven: S passes through Δprior or fewer parameters, not claimed; "
         "! a parameter of its own at a bound, or per-sensor offsets that line up with depth, "
-        "not claimed):",
+        "or a sensor its fit to the others misses by more than "
+        f"{LOSO_NONE:g} σ, not claimed):",
         f"  {'#':<3}{'candidate':<26}{'S':>8}{'D':>8}{'Δχ²':>9}{'Δprior':>8}{'+params':>8}"
         f"{'RMSE':>7}{'/σ':>6}" + (f"{'F':>8}{'fc /σ':>7}" if fc else "")
         + (f"{'G':>8}" if ground else ""),
     ]
     for i, e in enumerate(rk.entries, 1):
-        mark = "*" if e.detected else "!" if e.at_bound or e.profile else "~" if e.prior_driven else " "
+        mark = ("*" if e.detected else "!" if e.at_bound or e.profile or e.unpredicted
+                else "~" if e.prior_driven else " ")
         lines.append(
             f"{mark} {i:<3}{e.name:<26}{e.score:8.1f}{e.data_score:8.1f}{e.delta_chi2:9.1f}"
             f"{e.delta_prior:8.1f}{e.added_params:8.2f}{e.rmse:7.3f}{e.rmse_sigma:6.2f}"
@@ -109,6 +111,10 @@ def _candidates(rk) -> list[str]:
             + (f"  LOSO lpd {e.loso_lpd:+.3f}" if e.loso_lpd is not None else "")
             + (f"  at bound: {', '.join(e.at_bound)}" if e.at_bound else "")
             + ("  offsets: one coherent depth profile" if e.profile else "")
+            + (f"  misses the {e.unpredicted[0]} sensor out of sensor: {e.unpredicted[1]:.1f} σ"
+               if e.unpredicted else "")
+            + (f"  out of sensor ≤ {max(e.loso_rmse_sigma.values()):.1f} σ"
+               if e.loso_rmse_sigma and not e.unpredicted else "")
         )
         if i <= 3 or e.detected:
             for ev in e.evidence:

@@ -80,7 +80,11 @@ def _entry_record(e) -> dict:
             "excess_share": round(e.excess_share, 4), "rmse_sigma": round(e.rmse_sigma, 4),
             "rho": round(e.rho, 3), "at_bound": list(e.at_bound), "profile": e.profile,
             "detected": e.detected, "explains": e.explains, "partial": e.partial,
-            "plausibility": e.plausibility_claim}
+            "plausibility": e.plausibility_claim,
+            **({} if e.loso_lpd is None else {"loso_lpd": round(e.loso_lpd, 4)}),
+            **({} if e.loso_rmse_sigma is None else
+               {"loso_rmse_sigma": {k: round(v, 3) for k, v in e.loso_rmse_sigma.items()}}),
+            **({} if e.unpredicted is None else {"unpredicted": list(e.unpredicted)})}
 
 
 def diagnose_twin(twin, directory: str | Path, *, forecast: bool = False,

@@ -74,8 +74,9 @@ class HoldOut:
         }
 
 
-def subproblem(problem, keep: np.ndarray):
-    """The problem restricted to the observed sensors ``keep`` (indices), same priors."""
+def subproblem(problem, keep: np.ndarray, fixed: dict[str, float] | None = None):
+    """The problem restricted to the observed sensors ``keep`` (indices), same priors; the
+    parameters named in ``fixed`` held at the given values."""
     meas = problem.meas
     sub = replace(meas, depths=meas.depths[keep], T_obs=meas.T_obs[:, keep])
     m = problem.model
@@ -84,6 +85,9 @@ def subproblem(problem, keep: np.ndarray):
     streams = [Temperatures(sub), *problem.posterior.streams[1:]]  # plates, ...: unchanged
     defaults = with_parameters(model.parameter_space(), streams)
     params = [problem.space[n] if n in problem.space else p for n, p in defaults.params.items()]
+    fixed = fixed or {}
+    params = [replace(p, value=fixed[p.name], vary=False) if p.name in fixed else p
+              for p in params]
     space = ParameterSpace(params, defaults.joint_priors)
     post = LogPosterior(model, space, streams=streams)
     if problem.posterior.input_noise is not None:  # the kept sensors' block of the covariance
@@ -119,3 +123,25 @@ def leave_one_sensor_out(problem, start: dict[str, float] | None = None) -> Hold
         lp.append(-0.5 * (r / sd) ** 2 - np.log(sd) - 0.5 * _LOG_2PI)
     return HoldOut(list(meas.sensor_labels), rmse, float(np.mean(np.concatenate(lp))),
                    np.array([float(np.mean(v)) for v in lp]))
+
+
+def out_of_sensor(problem, values: dict[str, float], fixed: tuple[str, ...] = ()) -> np.ndarray:
+    """RMSE (degC) of each sensor's series predicted by the model refitted by MAP to the other
+    sensors from ``values`` (the claim rule's out-of-sensor check, :mod:`.entries`). Unlike
+    :func:`leave_one_sensor_out`, the parameters named in ``fixed`` (a per-sensor nuisance's
+    offsets) are held at ``values`` in every fold, and the held-out sensor is predicted with
+    its own: does the physics fitted without a sensor, given the claimed calibration of every
+    sensor, predict that sensor?"""
+    meas = problem.meas
+    n = meas.n_sensors
+    hold = {k: values[k] for k in fixed if k in values}
+    rmse = np.zeros(n)
+    for k in range(n):
+        keep = np.array([i for i in range(n) if i != k])
+        sp = subproblem(problem, keep, hold)
+        fit = refit(sp, values)
+        nodes = sp.model.solve(sp.space.expand(fit.theta[None, :]))  # k not in the start profile
+        v = {**values, **fit.values()}  # and k's own offsets: the full fit's
+        pred = problem.model.observe(nodes, {key: np.array([x]) for key, x in v.items()})[0]
+        rmse[k] = float(np.sqrt(np.mean((pred[1:, k] - meas.T_obs[1:, k]) ** 2)))
+    return rmse

@@ -61,6 +61,7 @@ from .entries import (
     ENERGY,
     FLOOR,
     GROUND_FORECAST,
+    LOSO_NONE,
     PER_SENSOR,
     THRESHOLD,
     Entry,
@@ -75,6 +76,7 @@ from .forecast import forecast as forecast_skill
 from .forecast import forecast_gain, forecast_share, plugin_gain
 from .ground import GROUND_HOOKS, ground_forecast, ground_gain, where_acts
 from .holdout import leave_one_sensor_out
+from .holdout import out_of_sensor as sensor_holdout
 from .residuals import ResidualReport, analyse_point, noise_like, plain_signals
 from .unexplained import unexplained
 from .verdict import make_verdict
@@ -160,15 +162,29 @@ def _entry(name, desc, ref: Fit, cand: Fit, ext, patterns, base_impossible, decl
     )
 
 
+def _unpredicted_text(entries: list[Entry]) -> str:
+    """Why candidates that forecast better are not claimed (the out-of-sensor check)."""
+    parts = [f"{e.name} (the {e.unpredicted[0]} sensor missed by {e.unpredicted[1]:.1f} σ)"
+             for e in entries]
+    sensors = sorted({e.unpredicted[0] for e in entries})
+    where = (f"the misfit sits in the {sensors[0]} sensor: a fault or an effect of that sensor "
+             "outside the catalogue" if len(sensors) == 1 else "no one physics predicts them all")
+    return (f"{', '.join(parts)} forecast better but do not predict that sensor from the "
+            f"others (more than {LOSO_NONE:g} σ, not a claim); {where}")
+
+
 def _none_of_these(best: Entry | None, entries: list[Entry], rep, base: Fit):
     """The :class:`~.unexplained.Unexplained` analysis if no catalogue entry explains the misfit
     (module doc), else None."""
     why = []
     bound = {e.name: e.at_bound for e in entries if e.at_bound and e.data_score > DATA_THRESHOLD}
     coherent = [e.name for e in entries if e.profile and e.data_score > DATA_THRESHOLD]
+    unpredicted = [e for e in entries if e.unpredicted is not None]
     if best is not None and not best.explains:
         why.append(f"the best candidate, {best.name}, leaves RMSE {best.rmse_sigma:.2f} σ "
                    f"and lag-1 {best.rho:.2f}")
+    elif best is None and unpredicted:
+        why.append(_unpredicted_text(unpredicted))
     elif best is None and not noise_like(rep):
         fc = any(e.forecast_gain is not None for e in entries)
         why.append("no candidate forecasts the held-out period better by the margin" if fc
@@ -289,6 +305,8 @@ def rank_missing_effects(
                     e.loso_lpd = leave_one_sensor_out(e.fit.problem, e.fit.values()).lpd
                 close.sort(key=lambda e: -(e.loso_lpd if e.loso_lpd is not None else -np.inf))
                 entries = close + [e for e in entries if e not in close]
+    if fbase is not None:
+        entries = out_of_sensor(entries)
     best = entries[0] if entries and entries[0].detected else None
     none = _none_of_these(best, entries, rep, base)
     if none is not None and best is not None and not (best.plausibility_claim or best.partial):
@@ -297,6 +315,28 @@ def rank_missing_effects(
     verdict = make_verdict(best, entries, lookalikes, rep, base, none, findings, points, fbase)
     return Ranking(entries, base, rep, verdict, best, lookalikes, skipped, threshold, none, findings,
                    points, fbase)
+
+
+def out_of_sensor(entries: list[Entry], limit: float = LOSO_NONE) -> list[Entry]:
+    """The out-of-sensor check of the forecast rule (:mod:`.entries`): while the first entry
+    is claimable, predict each sensor from the others with its model
+    (:func:`~.holdout.out_of_sensor`; a per-sensor nuisance's offsets held at its fit); a fold
+    worse than ``limit`` sigma marks it :attr:`~.entries.Entry.unpredicted` and the next one is
+    checked. ``entries`` in claim order; returns them in claim order (look-alike order kept)."""
+    while entries and entries[0].detected:
+        e = entries[0]
+        fixed = tuple(e.values) if e.name in PER_SENSOR else ()
+        rmse = sensor_holdout(e.fit.problem, e.fit.values(), fixed)
+        sig = float(e.fit.problem.meas.sigma)
+        labels = list(e.fit.problem.meas.sensor_labels)
+        e.loso_rmse_sigma = {lab: float(r / sig) for lab, r in zip(labels, rmse, strict=True)}
+        worst = max(e.loso_rmse_sigma, key=e.loso_rmse_sigma.get)
+        if e.loso_rmse_sigma[worst] <= limit:
+            break
+        e.unpredicted = (worst, e.loso_rmse_sigma[worst])
+        rest = [x for x in entries if x is not e]
+        entries = [x for x in rest if x.detected] + [e] + [x for x in rest if not x.detected]
+    return entries
 
 
 def claim_order(entries: list[Entry]) -> list[Entry]:

@@ -85,6 +85,14 @@ def forecast_sentence(best, entries, fbase) -> str:
               key=lambda e: e.forecast_gain, default=None)
     if top is None:
         return ""
+    vetoed = [e for e in entries if e.unpredicted is not None]
+    if vetoed:
+        e = max(vetoed, key=lambda x: x.claim_gain)
+        return (f" Candidates forecast {period} better by the margin (best {e.name}: RMSE "
+                f"{fbase.rmse_sigma:.2f} σ -> {e.forecast_rmse_sigma:.2f} σ, F = "
+                f"{e.forecast_gain:.0f}" + (f", G = {e.ground_gain:.0f}" if e.ground_gain is
+                                            not None else "")
+                + "), but none predicts every sensor from the others.")
     why = ""
     if top.forecast_gain > FORECAST_THRESHOLD:
         why = (", but it leaves too much of the forecast error unexplained" if top.detected else
@@ -151,6 +159,11 @@ def _verdict_main(best, entries, lookalikes, rep, base, none) -> str:
             alike = "forecast gain" if best.forecast_gain is not None else "score"
             txt += (f" Look-alikes with a similar {alike}: {', '.join(others)}; "
                     f"{best.name} predicts held-out sensors best.")
+        vetoed = [e for e in entries if e.unpredicted is not None]
+        if vetoed:
+            txt += (" Not claimed though they forecast better: " + ", ".join(
+                f"{e.name} (its fit to the other sensors misses the {e.unpredicted[0]} sensor by "
+                f"{e.unpredicted[1]:.1f} σ)" for e in vetoed) + ".")
         if best.name == "radiation_factor":
             txt += (
                 " Caveat: a radiation factor is identifiable only through the priors on kappa and "
@@ -209,7 +222,10 @@ def headline(rk) -> str:
         else:
             txt += "."
     elif rk.none_of_these:
-        where = (f" The evidence points at the {rk.points_at['where']}." if rk.points_at else "")
+        sensors = sorted({e.unpredicted[0] for e in rk.entries if e.unpredicted is not None})
+        where = (f" The evidence points at the {rk.points_at['where']}." if rk.points_at else
+                 f" The misfit sits in the {sensors[0]} sensor: the candidates that forecast "
+                 "better do not predict it from the other sensors." if len(sensors) == 1 else "")
         txt = f"Verdict: none of the catalogue's effects explains the misfit.{where}"
     else:
         txt = "Verdict: no missing effect detected."

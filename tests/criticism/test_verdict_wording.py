@@ -34,12 +34,12 @@ def test_a_claim_at_the_noise_size_with_a_correlated_leftover_says_so():
     assert "removes 60 % of the excess misfit" in part and "None of these" in part
 
 
-def _ranking(best=None, none=False, points=None, alarms=()):
+def _ranking(best=None, none=False, points=None, alarms=(), entries=()):
     from pavement_mcmc.physics.materials import Finding
 
     findings = [Finding("alarm", q, v, lo, hi, "every ground material") for q, v, lo, hi in alarms]
     return SimpleNamespace(best=best, forecast=SimpleNamespace(horizon=24.0), none_of_these=none,
-                           points_at=points, findings=findings)
+                           points_at=points, findings=findings, entries=list(entries))
 
 
 def test_the_headline_states_the_verdict_in_a_sentence():
@@ -56,6 +56,12 @@ def test_the_headline_states_the_verdict_in_a_sentence():
                      "points at the surface energy balance. The base fit is physically impossible "
                      "(kappa = 12.7 W m-1 K-1, C = 26.3 MJ m-3 K-1).")
     assert headline(_ranking()) == "Verdict: no missing effect detected."
+    vetoed = _claimed(1.0)
+    vetoed.unpredicted = ("2cm", 3.1)  # forecasts better, misses the 2 cm sensor out of sensor
+    sun = headline(_ranking(none=True, entries=[vetoed]))
+    assert sun == ("Verdict: none of the catalogue's effects explains the misfit. The misfit sits "
+                   "in the 2cm sensor: the candidates that forecast better do not predict it from "
+                   "the other sensors.")
 
 
 def test_the_candidates_table_shows_the_ground_gain_when_there_is_one():
