@@ -300,12 +300,12 @@ def rank_missing_effects(
                  and e.leads == entries[0].leads]
         if len(close) > 1:
             lookalikes = [e.name for e in close]
-            if holdout:
+            if holdout and problem.meas.n_sensors > 1:  # one sensor: nothing to hold out
                 for e in close:
                     e.loso_lpd = leave_one_sensor_out(e.fit.problem, e.fit.values()).lpd
                 close.sort(key=lambda e: -(e.loso_lpd if e.loso_lpd is not None else -np.inf))
                 entries = close + [e for e in entries if e not in close]
-    if fbase is not None:
+    if fbase is not None and problem.meas.n_sensors > 1:  # one sensor: no other to refit to
         entries = out_of_sensor(entries)
     best = entries[0] if entries and entries[0].detected else None
     none = _none_of_these(best, entries, rep, base)

@@ -5,6 +5,8 @@ noise; the inversion shares neither the simulator's grid nor its h(t))."""
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
@@ -60,3 +62,24 @@ def test_a_true_sensor_bias_passes_with_its_offsets_held(tmp_path):
     assert out_of_sensor(pb, start) == pytest.approx(leave_one_sensor_out(pb, start).rmse,
                                                       rel=1e-9)
 
+
+
+@pytest.mark.parametrize("observed, top, cand", [([2.0], "surface", "wind_convection"),
+                                                 ([1.0, 3.0], "measured", "two_layer")])
+def test_one_observed_sensor_has_no_out_of_sensor_check(tmp_path, observed, top, cand):
+    """With one observed sensor (or two with the top one the measured boundary) there is no
+    other sensor to refit to: the check is skipped (no fold, no veto) and the ranking runs as
+    before it (it raised an IndexError on the empty fold); holdout's functions say why."""
+    twin = forecast_twins((cand,), (2701,))[0]
+    inv = {**twin.inversion, "data": {**twin.inversion["data"], "observed_cm": observed},
+           "model": {**twin.inversion["model"], "top": top}}
+    pb = build_problem(load_case(write_twin(replace(twin, inversion=inv), tmp_path / "t")))
+    assert pb.meas.n_sensors == 1
+    rk = rank_missing_effects(pb, refit(pb).values(), [cand], forecast=True)
+    assert all(e.loso_rmse_sigma is None and e.unpredicted is None for e in rk.entries)
+    if top == "surface":  # claimed as before the check
+        assert rk.best is not None and rk.best.name == cand
+    with pytest.raises(ValueError, match="two observed sensors"):
+        out_of_sensor(pb, refit(pb).values())
+    with pytest.raises(ValueError, match="two observed sensors"):
+        leave_one_sensor_out(pb)
