@@ -61,10 +61,7 @@ sigma, and a bias of that sensor leaves 2.4 sigma; the claimed true physical can
 fold on 45 catalogue twins (seeds 2700-2704) was 1.7 sigma, a true sensor bias's 1.3 sigma.
 A candidate that fails is not claimed (:attr:`Entry.unpredicted` names the sensor) and the
 next one is checked; the campaign (``docs/VALIDATION.md`` §4) gives the rates. With one observed
-sensor (or two under a measured top) there is no other sensor to fit to: no check. A
-plausibility claim (no better forecast) is not checked: the limit was measured on forecast
-claims, and a partial fit several sigma off in sample cannot meet it (the desert record's
-kappa(T), 4.1 sigma in sample, was vetoed at 15 sigma and the verdict said it forecast better).
+sensor (or two under a measured top) there is no other sensor to fit to: no check.
 
 A candidate with one of its own parameters fitted **at a bound** is never claimed: it is a sign
 that the missing effect is none of the catalogue's (see :mod:`.unexplained`). Nor is a

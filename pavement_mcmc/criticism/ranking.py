@@ -319,13 +319,11 @@ def rank_missing_effects(
 
 def out_of_sensor(entries: list[Entry], limit: float = LOSO_NONE) -> list[Entry]:
     """The out-of-sensor check of the forecast rule (:mod:`.entries`): while the first entry
-    is claimable by its forecast, predict each sensor from the others with its model
+    is claimable, predict each sensor from the others with its model
     (:func:`~.holdout.out_of_sensor`; a per-sensor nuisance's offsets held at its fit); a fold
     worse than ``limit`` sigma marks it :attr:`~.entries.Entry.unpredicted` and the next one is
-    checked. A plausibility claim (:attr:`~.entries.Entry.leads` false) is not checked: the
-    limit was measured on forecast claims, and a partial fit of several sigma in sample cannot
-    meet it. ``entries`` in claim order; returns them in claim order (look-alike order kept)."""
-    while entries and entries[0].detected and entries[0].leads:
+    checked. ``entries`` in claim order; returns them in claim order (look-alike order kept)."""
+    while entries and entries[0].detected:
         e = entries[0]
         fixed = tuple(e.values) if e.name in PER_SENSOR else ()
         rmse = sensor_holdout(e.fit.problem, e.fit.values(), fixed)

@@ -83,33 +83,3 @@ def test_one_observed_sensor_has_no_out_of_sensor_check(tmp_path, observed, top,
         out_of_sensor(pb, refit(pb).values())
     with pytest.raises(ValueError, match="two observed sensors"):
         leave_one_sensor_out(pb)
-
-
-def _entry(name, gain, plausible, fit):
-    from pavement_mcmc.criticism.entries import Entry
-
-    return Entry(name=name, description="", reference="base", score=500.0, data_score=100.0,
-                 delta_chi2=900.0, delta_prior=400.0, added_params=1.0, rho=0.8, rmse=0.41,
-                 rmse_sigma=4.1, rmse_sensors=[0.5, 0.4], evidence=[], values={},
-                 restores_plausibility=plausible, forecast_gain=gain, forecast_share=0.1,
-                 forecast_rmse_sigma=6.9, excess_share=0.57, fit=fit)
-
-
-def test_a_plausibility_claim_is_not_vetoed_out_of_sensor(monkeypatch):
-    """The check is the forecast claim's (a better forecast that is a sensor's, not the
-    physics'), measured and calibrated on forecast claims. A plausibility claim (an impossible
-    base fit brought into range, F <= 15: the desert record's kappa(T), in-sample 4.1 sigma) was
-    vetoed by the 2 sigma limit that a partial fit cannot meet, and the verdict said it
-    "forecast better". Only a candidate that forecasts better is checked."""
-    from types import SimpleNamespace
-
-    from pavement_mcmc.criticism import ranking
-
-    meas = SimpleNamespace(sigma=0.1, sensor_labels=["5cm", "10cm"])
-    fit = SimpleNamespace(problem=SimpleNamespace(meas=meas), values=dict)
-    monkeypatch.setattr(ranking, "sensor_holdout", lambda *a: np.array([1.5, 0.3]))  # 15 sigma
-    forecast, plausible = _entry("two_layer", 40.0, False, fit), _entry("kappa_T", 2.6, True, fit)
-    out = ranking.out_of_sensor(ranking.claim_order([plausible, forecast]))
-    assert forecast.unpredicted == ("5cm", pytest.approx(15.0))  # vetoed, the next one ...
-    assert out[0] is plausible and plausible.detected and plausible.unpredicted is None
-    assert plausible.loso_rmse_sigma is None  # ... a plausibility claim: not checked
