@@ -62,6 +62,12 @@ def _where(points, entries) -> str:
             "entries allow. ")
 
 
+def claimable_by(e) -> str:
+    """Why a candidate stopped by the out-of-sensor check would have been claimed, in words."""
+    return ("forecasts better" if e.forecasts_better
+            else "brings kappa and C back into range")
+
+
 def forecast_sentence(best, entries, fbase) -> str:
     """The forecast rule's sentence (:mod:`.entries`): how the claimed candidate forecasts the
     held-out period, or that none forecasts it better by the margin ('' without forecasts)."""
@@ -85,7 +91,7 @@ def forecast_sentence(best, entries, fbase) -> str:
               key=lambda e: e.forecast_gain, default=None)
     if top is None:
         return ""
-    vetoed = [e for e in entries if e.unpredicted is not None]
+    vetoed = [e for e in entries if e.unpredicted is not None and e.forecasts_better]
     if vetoed:
         e = max(vetoed, key=lambda x: x.claim_gain)
         return (f" Candidates forecast {period} better by the margin (best {e.name}: RMSE "
@@ -161,9 +167,9 @@ def _verdict_main(best, entries, lookalikes, rep, base, none) -> str:
                     f"{best.name} predicts held-out sensors best.")
         vetoed = [e for e in entries if e.unpredicted is not None]
         if vetoed:
-            txt += (" Not claimed though they forecast better: " + ", ".join(
-                f"{e.name} (its fit to the other sensors misses the {e.unpredicted[0]} sensor by "
-                f"{e.unpredicted[1]:.1f} σ)" for e in vetoed) + ".")
+            txt += (" Not claimed though claimable: " + ", ".join(
+                f"{e.name} (it {claimable_by(e)}, but its fit to the other sensors misses the "
+                f"{e.unpredicted[0]} sensor by {e.unpredicted[1]:.1f} σ)" for e in vetoed) + ".")
         if best.name == "radiation_factor":
             txt += (
                 " Caveat: a radiation factor is identifiable only through the priors on kappa and "
@@ -222,10 +228,13 @@ def headline(rk) -> str:
         else:
             txt += "."
     elif rk.none_of_these:
-        sensors = sorted({e.unpredicted[0] for e in rk.entries if e.unpredicted is not None})
+        vetoed = [e for e in rk.entries if e.unpredicted is not None]
+        sensors = sorted({e.unpredicted[0] for e in vetoed})
+        which = ("that forecast better" if all(e.forecasts_better for e in vetoed)
+                 else "the rule would claim")
         where = (f" The evidence points at the {rk.points_at['where']}." if rk.points_at else
-                 f" The misfit sits in the {sensors[0]} sensor: the candidates that forecast "
-                 "better do not predict it from the other sensors." if len(sensors) == 1 else "")
+                 f" The misfit sits in the {sensors[0]} sensor: the candidates {which} do not "
+                 "predict it from the other sensors." if len(sensors) == 1 else "")
         txt = f"Verdict: none of the catalogue's effects explains the misfit.{where}"
     else:
         txt = "Verdict: no missing effect detected."

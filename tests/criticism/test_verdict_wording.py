@@ -78,3 +78,24 @@ def test_the_candidates_table_shows_the_ground_gain_when_there_is_one():
     assert all("G" not in ln.split()[-1:] for ln in _candidates(
         SimpleNamespace(entries=[_claimed(0.6)], forecast=object(), threshold=10.0, skipped={}))
         if "candidate" in ln and "RMSE" in ln)
+
+
+def test_a_stopped_plausibility_claim_is_not_said_to_forecast_better():
+    """The desert record (runs/desert.toml): kappa(T) and evaporation bring the impossible base
+    fit into range (F = 2.6 and 0, no better forecast) and miss the 5 cm sensor out of sensor.
+    The verdict said they "forecast better" ("Candidates forecast the held-out 24 h better by
+    the margin (best conductivity_temperature: ..., F = 3, G = 3)"); it says what they do."""
+    from pavement_mcmc.criticism.ranking import _unpredicted_text
+    from pavement_mcmc.criticism.verdict import forecast_sentence, headline
+
+    e = _claimed(0.57)
+    e.name, e.forecast_gain, e.restores_plausibility = "conductivity_temperature", 2.6, True
+    e.unpredicted = ("5cm", 15.4)
+    assert e.plausibility_claim and not e.forecasts_better
+    fbase = SimpleNamespace(horizon=24.0, rmse_sigma=7.88, driver="the forcing alone")
+    fc = forecast_sentence(None, [e], fbase)
+    assert "No candidate forecasts the held-out 24 h better by the margin" in fc, fc
+    why = _unpredicted_text([e])
+    assert "forecast better" not in why and "kappa and C" in why and "15.4 σ" in why, why
+    head = headline(_ranking(none=True, entries=[e]))
+    assert "forecast better" not in head and "5cm sensor" in head, head
