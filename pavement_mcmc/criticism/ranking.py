@@ -323,6 +323,7 @@ def out_of_sensor(entries: list[Entry], limit: float = LOSO_NONE) -> list[Entry]
     (:func:`~.holdout.out_of_sensor`; a per-sensor nuisance's offsets held at its fit); a fold
     worse than ``limit`` sigma marks it :attr:`~.entries.Entry.unpredicted` and the next one is
     checked. ``entries`` in claim order; returns them in claim order (look-alike order kept)."""
+    order = list(entries)
     while entries and entries[0].detected:
         e = entries[0]
         fixed = tuple(e.values) if e.name in PER_SENSOR else ()
@@ -333,9 +334,8 @@ def out_of_sensor(entries: list[Entry], limit: float = LOSO_NONE) -> list[Entry]
         worst = max(e.loso_rmse_sigma, key=e.loso_rmse_sigma.get)
         if e.loso_rmse_sigma[worst] <= limit:
             break
-        e.unpredicted = (worst, e.loso_rmse_sigma[worst])
-        rest = [x for x in entries if x is not e]
-        entries = [x for x in rest if x.detected] + [e] + [x for x in rest if not x.detected]
+        e.unpredicted = (worst, e.loso_rmse_sigma[worst])  # behind the claimable ones
+        entries = [x for x in order if x.detected] + [x for x in order if not x.detected]
     return entries
 
 
