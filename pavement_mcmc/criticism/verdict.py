@@ -160,7 +160,8 @@ def _verdict_main(best, entries, lookalikes, rep, base, none) -> str:
             v = best.fit.values()
             txt += (f" It brings kappa = {v['kappa']:.3g} W m-1 K-1 and C = {v['C'] * 1e-6:.3g} "
                     "MJ m-3 K-1 back into the range of ground materials without a worse fit.")
-        others = [n for n in lookalikes if n != best.name]
+        stopped = {e.name for e in entries if e.unpredicted is not None}  # named below
+        others = [n for n in lookalikes if n != best.name and n not in stopped]
         if others:
             alike = "forecast gain" if best.forecast_gain is not None else "score"
             txt += (f" Look-alikes with a similar {alike}: {', '.join(others)}; "

@@ -99,3 +99,21 @@ def test_a_stopped_plausibility_claim_is_not_said_to_forecast_better():
     assert "forecast better" not in why and "kappa and C" in why and "15.4 σ" in why, why
     head = headline(_ranking(none=True, entries=[e]))
     assert "forecast better" not in head and "5cm sensor" in head, head
+
+
+def test_a_stopped_look_alike_is_not_called_a_look_alike_of_the_claim():
+    """Look-alikes are ordered by their leave-one-sensor-out score; when the first is stopped by
+    the out-of-sensor check and the second claimed, "Look-alikes ...: A; B predicts held-out
+    sensors best" contradicted "Not claimed though ...: A". A stopped one is named once."""
+    from pavement_mcmc.criticism.verdict import _verdict_main
+
+    a, b = _claimed(1.0), _claimed(1.0)
+    a.name, a.unpredicted = "sensor_depth", ("0cm", 2.2)
+    txt = _verdict_main(b, [b, a], ["sensor_depth", "two_layer"], None,
+                        SimpleNamespace(rmse=0.3), None)
+    assert "Look-alikes" not in txt and "sensor_depth (it forecasts better" in txt, txt
+    c = _claimed(1.0)
+    c.name = "sensor_bias"
+    txt = _verdict_main(b, [b, a, c], ["sensor_depth", "two_layer", "sensor_bias"], None,
+                        SimpleNamespace(rmse=0.3), None)
+    assert "Look-alikes with a similar forecast gain: sensor_bias;" in txt, txt
