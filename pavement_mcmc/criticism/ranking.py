@@ -79,7 +79,7 @@ from .holdout import leave_one_sensor_out
 from .holdout import out_of_sensor as sensor_holdout
 from .residuals import ResidualReport, analyse_point, noise_like, plain_signals
 from .unexplained import unexplained
-from .verdict import claimable_by, make_verdict
+from .verdict import claimable_by, make_verdict, missed_sensors, sensor_list
 
 __all__ = ["DATA_THRESHOLD", "FINER_H", "THRESHOLD", "Entry", "Ranking", "finer_h_spec",
            "rank_missing_effects"]
@@ -166,9 +166,10 @@ def _unpredicted_text(entries: list[Entry]) -> str:
     """Why claimable candidates are not claimed (the out-of-sensor check)."""
     parts = [f"{e.name} ({claimable_by(e)}; the {e.unpredicted[0]} sensor missed by "
              f"{e.unpredicted[1]:.1f} σ)" for e in entries]
-    sensors = sorted({e.unpredicted[0] for e in entries})
-    where = (f"the misfit sits in the {sensors[0]} sensor: a fault or an effect of that sensor "
-             "outside the catalogue" if len(sensors) == 1 else "no one physics predicts them all")
+    missed = missed_sensors(entries)
+    where = (f"the misfit sits in the {missed[0]} sensor: a fault or an effect of that sensor "
+             "outside the catalogue" if len(missed) == 1 else
+             f"they miss the {sensor_list(missed)} sensors: the misfit is not one sensor's")
     return (f"{', '.join(parts)} would be claimed but do not predict that sensor from the "
             f"others (more than {LOSO_NONE:g} σ, not a claim); {where}")
 

@@ -7,7 +7,7 @@ refit's (both MAP fits of the same data); a candidate that helps without explain
 
 from __future__ import annotations
 
-from .entries import DATA_THRESHOLD, ENERGY, FORECAST_THRESHOLD
+from .entries import DATA_THRESHOLD, ENERGY, FORECAST_THRESHOLD, LOSO_NONE
 from .residuals import ResidualReport, noise_like
 
 #: share of the excess misfit a claimed candidate removes above which its leftover is "the size
@@ -60,6 +60,22 @@ def _where(points, entries) -> str:
             + ". None is claimed as it stands (its data part or its range does not suffice): the "
             "sink or resistance at the surface is stronger than, or different from, what these "
             "entries allow. ")
+
+
+def missed_sensors(entries) -> list[str]:
+    """The sensors the candidates stopped by the out-of-sensor check miss: every fold beyond
+    :data:`~.entries.LOSO_NONE`, not only the worst (in the folds' order)."""
+    out: list[str] = []
+    for e in entries:
+        if e.unpredicted is not None:
+            folds = e.loso_rmse_sigma or dict([e.unpredicted])
+            out += [s for s, r in folds.items() if r > LOSO_NONE and s not in out]
+    return out
+
+
+def sensor_list(labels: list[str]) -> str:
+    """'a', 'a and b', 'a, b and c'."""
+    return labels[0] if len(labels) == 1 else ", ".join(labels[:-1]) + " and " + labels[-1]
 
 
 def claimable_by(e) -> str:
@@ -230,12 +246,14 @@ def headline(rk) -> str:
             txt += "."
     elif rk.none_of_these:
         vetoed = [e for e in rk.entries if e.unpredicted is not None]
-        sensors = sorted({e.unpredicted[0] for e in vetoed})
+        missed = missed_sensors(vetoed)
         which = ("that forecast better" if all(e.forecasts_better for e in vetoed)
                  else "the rule would claim")
         where = (f" The evidence points at the {rk.points_at['where']}." if rk.points_at else
-                 f" The misfit sits in the {sensors[0]} sensor: the candidates {which} do not "
-                 "predict it from the other sensors." if len(sensors) == 1 else "")
+                 f" The misfit sits in the {missed[0]} sensor: the candidates {which} do not "
+                 "predict it from the other sensors." if len(missed) == 1 else
+                 f" The candidates {which} do not predict the {sensor_list(missed)} sensors "
+                 "from the others." if missed else "")
         txt = f"Verdict: none of the catalogue's effects explains the misfit.{where}"
     else:
         txt = "Verdict: no missing effect detected."

@@ -117,3 +117,22 @@ def test_a_stopped_look_alike_is_not_called_a_look_alike_of_the_claim():
     txt = _verdict_main(b, [b, a, c], ["sensor_depth", "two_layer", "sensor_bias"], None,
                         SimpleNamespace(rmse=0.3), None)
     assert "Look-alikes with a similar forecast gain: sensor_bias;" in txt, txt
+
+
+def test_the_misfit_is_placed_in_one_sensor_only_when_no_other_fold_fails():
+    """The desert's measured-top day: two_layer, refitted without each sensor, misses 10 cm by
+    8.5 sigma and 20 cm by 2.4 sigma; the verdict said "the misfit sits in the 10cm sensor: a
+    fault or an effect of that sensor", which one worst fold does not show when another fails
+    too. The sun-warmed twin (only the top fold fails) keeps the sentence."""
+    from pavement_mcmc.criticism.ranking import _unpredicted_text
+    from pavement_mcmc.criticism.verdict import headline
+
+    e = _claimed(1.0)
+    e.unpredicted, e.loso_rmse_sigma = ("10cm", 8.5), {"10cm": 8.5, "20cm": 2.43, "30cm": 1.95}
+    head = headline(_ranking(none=True, entries=[e]))
+    assert "sits in" not in head and "10cm and 20cm sensors" in head, head
+    assert "sits in" not in _unpredicted_text([e])
+    sun = _claimed(1.0)
+    sun.unpredicted, sun.loso_rmse_sigma = ("0cm", 2.55), {"0cm": 2.55, "1cm": 1.64, "2cm": 1.4}
+    assert "sits in the 0cm sensor" in headline(_ranking(none=True, entries=[sun]))
+    assert "sits in the 0cm sensor" in _unpredicted_text([sun])
