@@ -9,7 +9,9 @@ other (:func:`calibrate`), each rate with its exact binomial interval
 (:func:`binomial_interval`).
 
 :func:`claim_at` keeps the record's own choice among look-alikes (the leave-one-sensor-out
-tie-break between candidates of almost equal gain) when that candidate is still claimable.
+tie-break between candidates of almost equal gain) when that candidate is still claimable, and
+never claims a candidate that failed the out-of-sensor check (``unpredicted``; a candidate the
+live run did not check, e.g. one claimable only at another margin, is taken as passing).
 
 ``ground``: the rule with the ground forecast (:mod:`.ground`) as well, for records that hold
 its gain ``G``: ``"either"`` credits a ground or sensor candidate when its forcing gain ``F`` or
@@ -59,13 +61,15 @@ def gain(e: dict, ground: str | None = None) -> float:
 
 def _forecasts_better(e: dict, margin: float, ground: str | None = None) -> bool:
     return (gain(e, ground) > margin and e["S"] >= -THRESHOLD and not e["at_bound"]
-            and not e["profile"])
+            and not e["profile"] and not e.get("unpredicted"))
 
 
 def _plausibility(e: dict) -> bool:
     """A plausibility claim (:attr:`~.entries.Entry.plausibility_claim`); records without the
     flag (the first campaign's): claimable but not by its forecast at the margin they were
     made with, :data:`UNFLAGGED_MARGIN` (their ``detected`` was computed at it)."""
+    if e.get("unpredicted"):  # stopped by the out-of-sensor check
+        return False
     if "plausibility" in e:
         return bool(e["plausibility"])
     return bool(e["detected"]) and not _forecasts_better(e, UNFLAGGED_MARGIN)

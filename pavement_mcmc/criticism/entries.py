@@ -60,7 +60,8 @@ a sun-warmed top sensor (outside the catalogue) two_layer and kappa(T) forecast 
 sigma, and a bias of that sensor leaves 2.4 sigma; the claimed true physical candidate's worst
 fold on 45 catalogue twins (seeds 2700-2704) was 1.7 sigma, a true sensor bias's 1.3 sigma.
 A candidate that fails is not claimed (:attr:`Entry.unpredicted` names the sensor) and the
-next one is checked; the campaign (``docs/VALIDATION.md`` §4) gives the rates.
+next one is checked; the campaign (``docs/VALIDATION.md`` §4) gives the rates. With one observed
+sensor (or two under a measured top) there is no other sensor to fit to: no check.
 
 A candidate with one of its own parameters fitted **at a bound** is never claimed: it is a sign
 that the missing effect is none of the catalogue's (see :mod:`.unexplained`). Nor is a

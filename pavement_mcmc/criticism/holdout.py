@@ -95,6 +95,16 @@ def subproblem(problem, keep: np.ndarray, fixed: dict[str, float] | None = None)
     return Problem(problem.cfg, model, space, post, problem.input_ref)
 
 
+def _folds(meas) -> list[np.ndarray]:
+    """The kept sensors of each fold (one fold per held-out sensor); a ValueError with fewer
+    than two observed sensors (a fold would keep none)."""
+    n = meas.n_sensors
+    if n < 2:
+        raise ValueError(f"holding a sensor out needs at least two observed sensors; the case "
+                         f"observes {n} ({', '.join(meas.sensor_labels) or 'none'})")
+    return [np.array([i for i in range(n) if i != k]) for k in range(n)]
+
+
 def _rows(meas, sensors: np.ndarray) -> np.ndarray:
     """Mask of the likelihood's data rows (time-major, sensors fastest) of some sensors."""
     mask = np.zeros((meas.n_obs - 1, meas.n_sensors), bool)
@@ -108,9 +118,9 @@ def leave_one_sensor_out(problem, start: dict[str, float] | None = None) -> Hold
     n = meas.n_sensors
     rmse = np.zeros(n)
     lp = []
+    folds = _folds(meas)
     sd_all = problem.posterior.marginal_sd()  # sigma, or each datum's sd with noisy inputs
-    for k in range(n):
-        keep = np.array([i for i in range(n) if i != k])
+    for k, keep in enumerate(folds):
         sp = subproblem(problem, keep)
         fit = refit(sp, start)
         p = sp.space.expand(fit.theta[None, :])
@@ -136,8 +146,7 @@ def out_of_sensor(problem, values: dict[str, float], fixed: tuple[str, ...] = ()
     n = meas.n_sensors
     hold = {k: values[k] for k in fixed if k in values}
     rmse = np.zeros(n)
-    for k in range(n):
-        keep = np.array([i for i in range(n) if i != k])
+    for k, keep in enumerate(_folds(meas)):
         sp = subproblem(problem, keep, hold)
         fit = refit(sp, values)
         nodes = sp.model.solve(sp.space.expand(fit.theta[None, :]))  # k not in the start profile

@@ -176,7 +176,8 @@ def ledger(runs: list[tuple[str, object, dict[str, float]]], *, holdout: bool = 
                 lag1=rep.rho,
                 chi2_dof=float(np.sum(z * z) / dof),
                 n_free=n_free,
-                holdout=leave_one_sensor_out(problem, values) if holdout else None,
+                holdout=(leave_one_sensor_out(problem, values)  # one sensor: no fold
+                         if holdout and problem.meas.n_sensors > 1 else None),
                 residuals=r,
                 t=rep.t,
                 forecast=_forecast_or_none(problem, values) if forecast else None,

@@ -79,7 +79,7 @@ from .holdout import leave_one_sensor_out
 from .holdout import out_of_sensor as sensor_holdout
 from .residuals import ResidualReport, analyse_point, noise_like, plain_signals
 from .unexplained import unexplained
-from .verdict import make_verdict
+from .verdict import claimable_by, make_verdict, missed_sensors, sensor_list
 
 __all__ = ["DATA_THRESHOLD", "FINER_H", "THRESHOLD", "Entry", "Ranking", "finer_h_spec",
            "rank_missing_effects"]
@@ -163,13 +163,14 @@ def _entry(name, desc, ref: Fit, cand: Fit, ext, patterns, base_impossible, decl
 
 
 def _unpredicted_text(entries: list[Entry]) -> str:
-    """Why candidates that forecast better are not claimed (the out-of-sensor check)."""
-    parts = [f"{e.name} (the {e.unpredicted[0]} sensor missed by {e.unpredicted[1]:.1f} σ)"
-             for e in entries]
-    sensors = sorted({e.unpredicted[0] for e in entries})
-    where = (f"the misfit sits in the {sensors[0]} sensor: a fault or an effect of that sensor "
-             "outside the catalogue" if len(sensors) == 1 else "no one physics predicts them all")
-    return (f"{', '.join(parts)} forecast better but do not predict that sensor from the "
+    """Why claimable candidates are not claimed (the out-of-sensor check)."""
+    parts = [f"{e.name} ({claimable_by(e)}; the {e.unpredicted[0]} sensor missed by "
+             f"{e.unpredicted[1]:.1f} σ)" for e in entries]
+    missed = missed_sensors(entries)
+    where = (f"the misfit sits in the {missed[0]} sensor: a fault or an effect of that sensor "
+             "outside the catalogue" if len(missed) == 1 else
+             f"they miss the {sensor_list(missed)} sensors: the misfit is not one sensor's")
+    return (f"{', '.join(parts)} would be claimed but do not predict that sensor from the "
             f"others (more than {LOSO_NONE:g} σ, not a claim); {where}")
 
 
@@ -300,12 +301,12 @@ def rank_missing_effects(
                  and e.leads == entries[0].leads]
         if len(close) > 1:
             lookalikes = [e.name for e in close]
-            if holdout:
+            if holdout and problem.meas.n_sensors > 1:  # one sensor: nothing to hold out
                 for e in close:
                     e.loso_lpd = leave_one_sensor_out(e.fit.problem, e.fit.values()).lpd
                 close.sort(key=lambda e: -(e.loso_lpd if e.loso_lpd is not None else -np.inf))
                 entries = close + [e for e in entries if e not in close]
-    if fbase is not None:
+    if fbase is not None and problem.meas.n_sensors > 1:  # one sensor: no other to refit to
         entries = out_of_sensor(entries)
     best = entries[0] if entries and entries[0].detected else None
     none = _none_of_these(best, entries, rep, base)
@@ -323,6 +324,7 @@ def out_of_sensor(entries: list[Entry], limit: float = LOSO_NONE) -> list[Entry]
     (:func:`~.holdout.out_of_sensor`; a per-sensor nuisance's offsets held at its fit); a fold
     worse than ``limit`` sigma marks it :attr:`~.entries.Entry.unpredicted` and the next one is
     checked. ``entries`` in claim order; returns them in claim order (look-alike order kept)."""
+    order = list(entries)
     while entries and entries[0].detected:
         e = entries[0]
         fixed = tuple(e.values) if e.name in PER_SENSOR else ()
@@ -333,9 +335,8 @@ def out_of_sensor(entries: list[Entry], limit: float = LOSO_NONE) -> list[Entry]
         worst = max(e.loso_rmse_sigma, key=e.loso_rmse_sigma.get)
         if e.loso_rmse_sigma[worst] <= limit:
             break
-        e.unpredicted = (worst, e.loso_rmse_sigma[worst])
-        rest = [x for x in entries if x is not e]
-        entries = [x for x in rest if x.detected] + [e] + [x for x in rest if not x.detected]
+        e.unpredicted = (worst, e.loso_rmse_sigma[worst])  # behind the claimable ones
+        entries = [x for x in order if x.detected] + [x for x in order if not x.detected]
     return entries
 
 

@@ -7,7 +7,7 @@ refit's (both MAP fits of the same data); a candidate that helps without explain
 
 from __future__ import annotations
 
-from .entries import DATA_THRESHOLD, ENERGY, FORECAST_THRESHOLD
+from .entries import DATA_THRESHOLD, ENERGY, FORECAST_THRESHOLD, LOSO_NONE
 from .residuals import ResidualReport, noise_like
 
 #: share of the excess misfit a claimed candidate removes above which its leftover is "the size
@@ -62,6 +62,28 @@ def _where(points, entries) -> str:
             "entries allow. ")
 
 
+def missed_sensors(entries) -> list[str]:
+    """The sensors the candidates stopped by the out-of-sensor check miss: every fold beyond
+    :data:`~.entries.LOSO_NONE`, not only the worst (in the folds' order)."""
+    out: list[str] = []
+    for e in entries:
+        if e.unpredicted is not None:
+            folds = e.loso_rmse_sigma or dict([e.unpredicted])
+            out += [s for s, r in folds.items() if r > LOSO_NONE and s not in out]
+    return out
+
+
+def sensor_list(labels: list[str]) -> str:
+    """'a', 'a and b', 'a, b and c'."""
+    return labels[0] if len(labels) == 1 else ", ".join(labels[:-1]) + " and " + labels[-1]
+
+
+def claimable_by(e) -> str:
+    """Why a candidate stopped by the out-of-sensor check would have been claimed, in words."""
+    return ("forecasts better" if e.forecasts_better
+            else "brings kappa and C back into range")
+
+
 def forecast_sentence(best, entries, fbase) -> str:
     """The forecast rule's sentence (:mod:`.entries`): how the claimed candidate forecasts the
     held-out period, or that none forecasts it better by the margin ('' without forecasts)."""
@@ -85,7 +107,7 @@ def forecast_sentence(best, entries, fbase) -> str:
               key=lambda e: e.forecast_gain, default=None)
     if top is None:
         return ""
-    vetoed = [e for e in entries if e.unpredicted is not None]
+    vetoed = [e for e in entries if e.unpredicted is not None and e.forecasts_better]
     if vetoed:
         e = max(vetoed, key=lambda x: x.claim_gain)
         return (f" Candidates forecast {period} better by the margin (best {e.name}: RMSE "
@@ -154,16 +176,17 @@ def _verdict_main(best, entries, lookalikes, rep, base, none) -> str:
             v = best.fit.values()
             txt += (f" It brings kappa = {v['kappa']:.3g} W m-1 K-1 and C = {v['C'] * 1e-6:.3g} "
                     "MJ m-3 K-1 back into the range of ground materials without a worse fit.")
-        others = [n for n in lookalikes if n != best.name]
+        stopped = {e.name for e in entries if e.unpredicted is not None}  # named below
+        others = [n for n in lookalikes if n != best.name and n not in stopped]
         if others:
             alike = "forecast gain" if best.forecast_gain is not None else "score"
             txt += (f" Look-alikes with a similar {alike}: {', '.join(others)}; "
                     f"{best.name} predicts held-out sensors best.")
         vetoed = [e for e in entries if e.unpredicted is not None]
         if vetoed:
-            txt += (" Not claimed though they forecast better: " + ", ".join(
-                f"{e.name} (its fit to the other sensors misses the {e.unpredicted[0]} sensor by "
-                f"{e.unpredicted[1]:.1f} σ)" for e in vetoed) + ".")
+            txt += (" Not claimed though claimable: " + ", ".join(
+                f"{e.name} (it {claimable_by(e)}, but its fit to the other sensors misses the "
+                f"{e.unpredicted[0]} sensor by {e.unpredicted[1]:.1f} σ)" for e in vetoed) + ".")
         if best.name == "radiation_factor":
             txt += (
                 " Caveat: a radiation factor is identifiable only through the priors on kappa and "
@@ -222,10 +245,15 @@ def headline(rk) -> str:
         else:
             txt += "."
     elif rk.none_of_these:
-        sensors = sorted({e.unpredicted[0] for e in rk.entries if e.unpredicted is not None})
+        vetoed = [e for e in rk.entries if e.unpredicted is not None]
+        missed = missed_sensors(vetoed)
+        which = ("that forecast better" if all(e.forecasts_better for e in vetoed)
+                 else "the rule would claim")
         where = (f" The evidence points at the {rk.points_at['where']}." if rk.points_at else
-                 f" The misfit sits in the {sensors[0]} sensor: the candidates that forecast "
-                 "better do not predict it from the other sensors." if len(sensors) == 1 else "")
+                 f" The misfit sits in the {missed[0]} sensor: the candidates {which} do not "
+                 "predict it from the other sensors." if len(missed) == 1 else
+                 f" The candidates {which} do not predict the {sensor_list(missed)} sensors "
+                 "from the others." if missed else "")
         txt = f"Verdict: none of the catalogue's effects explains the misfit.{where}"
     else:
         txt = "Verdict: no missing effect detected."

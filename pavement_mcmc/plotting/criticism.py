@@ -86,14 +86,18 @@ def plot_residual_correlations(report, fig: Figure | None = None) -> Figure:
 RANKING_STYLE = {"claimed": ("C3", "missing effect (claimed)"),
                  "lookalike": ("C1", "look-alike (detected, not claimed)"),
                  "prior": ("0.85", "prior-driven (not claimed)"),
+                 "unpredicted": ("C4", "misses a sensor out of sensor (not claimed)"),
                  "other": ("0.6", "not claimed (data part below the threshold, or at a bound)")}
 
 
 def ranking_status(ranking, entry) -> str:
-    """'claimed', 'lookalike', 'prior' (above the threshold thanks to the priors) or 'other'."""
+    """'claimed', 'lookalike', 'prior' (above the threshold thanks to the priors),
+    'unpredicted' (stopped by the out-of-sensor check) or 'other'."""
     best = getattr(ranking, "best", None)
     if best is not None and entry.name == best.name:
         return "claimed"
+    if getattr(entry, "unpredicted", None) is not None:
+        return "unpredicted"
     if entry.prior_driven:
         return "prior"
     return "lookalike" if entry.detected else "other"
@@ -104,7 +108,8 @@ def plot_ranking(ranking, fig: Figure | None = None) -> Figure:
     rule its forecast gain F (threshold :data:`~pavement_mcmc.criticism.entries.FORECAST_THRESHOLD`)
     beside the in-sample penalised misfit drop S (supporting), else S alone. Red only for the
     claimed missing effect, orange for detected look-alikes, a hatched light grey for the
-    prior-driven candidates the verdict does not claim, grey for the rest (legend below)."""
+    prior-driven candidates the verdict does not claim, purple for those the out-of-sensor
+    check stopped, grey for the rest (legend below)."""
     from ..criticism.entries import FORECAST_THRESHOLD
 
     entries = ranking.entries[::-1]

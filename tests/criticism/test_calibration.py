@@ -148,3 +148,18 @@ def test_the_shipped_campaign_records_choose_the_rules_margin():
     assert (at["false_claims"]["k"], at["false_claims"]["n"]) == (0, 80)
     wind = at["effects"]["wind_convection"]
     assert (wind["k"], wind["n"]) == (20, 20)
+
+
+def test_a_candidate_the_out_of_sensor_check_stopped_is_not_claimed_offline():
+    """A record's candidate that failed the out-of-sensor check (``unpredicted``) was not
+    claimed live; re-read offline it was (claim_at knew only F, S, bounds and profiles), so the
+    report's calibration and rates counted the stopped sun-warmed-sensor claims again (7 of the
+    142 fresh campaign records disagreed with their live claim). The next candidate decides."""
+    r = _rec("forecast-sensor_sun-s3800", "off_catalogue", ["sensor_sun"],
+             two_layer={**_entry(40.0), "unpredicted": ["0cm", 3.1]}, sensor_bias=_entry(20.0))
+    assert claim_at(r, 15.0) == "sensor_bias"
+    r["entries"]["sensor_bias"]["unpredicted"] = ["0cm", 2.4]
+    assert claim_at(r, 15.0) is None and claim_at(r, 15.0, ground="either") is None
+    assert rates_at([r], 15.0)["off_no_claim"]["k"] == 1
+    r["entries"]["sensor_bias"].update(F=2.0, plausibility=True)  # a stopped plausibility claim
+    assert claim_at(r, 15.0) is None

@@ -37,3 +37,17 @@ def test_loso_folds_average_to_the_score_and_show_in_compare():
     text = ledger([("base", pb, base.values()), ("two_layer", two, fit2.values())]).text()
     assert "fold by fold" in text
     assert "two_layer: LOSO lpd" in text and "of it from the fold that holds out " in text
+
+
+def test_compare_of_a_single_sensor_run_has_no_holdout_column(tmp_path):
+    """One observed sensor leaves no fold to refit: the ledger's leave-one-sensor-out entry is
+    empty ('-' in the table) instead of an IndexError from the empty fold."""
+    from dataclasses import replace
+
+    from pavement_mcmc.synthetic.corpus import forecast_twins, write_twin
+
+    twin = forecast_twins((), (2701,), hours=24.0)[0]
+    inv = {**twin.inversion, "data": {**twin.inversion["data"], "observed_cm": [2.0]}}
+    pb = build_problem(load_case(write_twin(replace(twin, inversion=inv), tmp_path / "t")))
+    led = ledger([("one", pb, refit(pb).values())])
+    assert led.rows[0].holdout is None and "one" in led.text()

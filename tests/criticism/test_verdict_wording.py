@@ -78,3 +78,61 @@ def test_the_candidates_table_shows_the_ground_gain_when_there_is_one():
     assert all("G" not in ln.split()[-1:] for ln in _candidates(
         SimpleNamespace(entries=[_claimed(0.6)], forecast=object(), threshold=10.0, skipped={}))
         if "candidate" in ln and "RMSE" in ln)
+
+
+def test_a_stopped_plausibility_claim_is_not_said_to_forecast_better():
+    """The desert record (runs/desert.toml): kappa(T) and evaporation bring the impossible base
+    fit into range (F = 2.6 and 0, no better forecast) and miss the 5 cm sensor out of sensor.
+    The verdict said they "forecast better" ("Candidates forecast the held-out 24 h better by
+    the margin (best conductivity_temperature: ..., F = 3, G = 3)"); it says what they do."""
+    from pavement_mcmc.criticism.ranking import _unpredicted_text
+    from pavement_mcmc.criticism.verdict import forecast_sentence, headline
+
+    e = _claimed(0.57)
+    e.name, e.forecast_gain, e.restores_plausibility = "conductivity_temperature", 2.6, True
+    e.unpredicted = ("5cm", 15.4)
+    assert e.plausibility_claim and not e.forecasts_better
+    fbase = SimpleNamespace(horizon=24.0, rmse_sigma=7.88, driver="the forcing alone")
+    fc = forecast_sentence(None, [e], fbase)
+    assert "No candidate forecasts the held-out 24 h better by the margin" in fc, fc
+    why = _unpredicted_text([e])
+    assert "forecast better" not in why and "kappa and C" in why and "15.4 σ" in why, why
+    head = headline(_ranking(none=True, entries=[e]))
+    assert "forecast better" not in head and "5cm sensor" in head, head
+
+
+def test_a_stopped_look_alike_is_not_called_a_look_alike_of_the_claim():
+    """Look-alikes are ordered by their leave-one-sensor-out score; when the first is stopped by
+    the out-of-sensor check and the second claimed, "Look-alikes ...: A; B predicts held-out
+    sensors best" contradicted "Not claimed though ...: A". A stopped one is named once."""
+    from pavement_mcmc.criticism.verdict import _verdict_main
+
+    a, b = _claimed(1.0), _claimed(1.0)
+    a.name, a.unpredicted = "sensor_depth", ("0cm", 2.2)
+    txt = _verdict_main(b, [b, a], ["sensor_depth", "two_layer"], None,
+                        SimpleNamespace(rmse=0.3), None)
+    assert "Look-alikes" not in txt and "sensor_depth (it forecasts better" in txt, txt
+    c = _claimed(1.0)
+    c.name = "sensor_bias"
+    txt = _verdict_main(b, [b, a, c], ["sensor_depth", "two_layer", "sensor_bias"], None,
+                        SimpleNamespace(rmse=0.3), None)
+    assert "Look-alikes with a similar forecast gain: sensor_bias;" in txt, txt
+
+
+def test_the_misfit_is_placed_in_one_sensor_only_when_no_other_fold_fails():
+    """The desert's measured-top day: two_layer, refitted without each sensor, misses 10 cm by
+    8.5 sigma and 20 cm by 2.4 sigma; the verdict said "the misfit sits in the 10cm sensor: a
+    fault or an effect of that sensor", which one worst fold does not show when another fails
+    too. The sun-warmed twin (only the top fold fails) keeps the sentence."""
+    from pavement_mcmc.criticism.ranking import _unpredicted_text
+    from pavement_mcmc.criticism.verdict import headline
+
+    e = _claimed(1.0)
+    e.unpredicted, e.loso_rmse_sigma = ("10cm", 8.5), {"10cm": 8.5, "20cm": 2.43, "30cm": 1.95}
+    head = headline(_ranking(none=True, entries=[e]))
+    assert "sits in" not in head and "10cm and 20cm sensors" in head, head
+    assert "sits in" not in _unpredicted_text([e])
+    sun = _claimed(1.0)
+    sun.unpredicted, sun.loso_rmse_sigma = ("0cm", 2.55), {"0cm": 2.55, "1cm": 1.64, "2cm": 1.4}
+    assert "sits in the 0cm sensor" in headline(_ranking(none=True, entries=[sun]))
+    assert "sits in the 0cm sensor" in _unpredicted_text([sun])

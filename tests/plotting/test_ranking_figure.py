@@ -62,3 +62,15 @@ def test_under_the_forecast_rule_the_figure_shows_the_claim_rules_gain_first():
     assert np.allclose(f_line, np.log10(1 + FORECAST_THRESHOLD))
     widths = {round(p.get_y() + p.get_height() / 2): p.get_width() for p in f_ax.patches}
     assert widths[1] > f_line[0] and widths[0] < 0  # two_layer (top row) past it, evaporation < 0
+
+
+def test_a_candidate_stopped_out_of_sensor_has_its_own_colour():
+    """A candidate that forecasts better but misses a sensor out of sensor (not claimed) was
+    drawn grey as 'data part below the threshold, or at a bound', past the dashed line."""
+    stopped = _entry("two_layer", 146.0, False, False, forecast_gain=21.0)
+    stopped.unpredicted = ("0cm", 2.6)
+    other = _entry("evaporation", 2.0, False, False, forecast_gain=-0.6)
+    colours, labels = _colours(plot_ranking(SimpleNamespace(entries=[stopped, other], best=None,
+                                                            threshold=10.0)))
+    assert colours["two_layer"] != colours["evaporation"]
+    assert any("out of sensor" in lab for lab in labels), labels
