@@ -168,9 +168,11 @@ def _unpredicted_text(entries: list[Entry]) -> str:
              f"{e.unpredicted[1]:.1f} σ)" for e in entries]
     missed = missed_sensors(entries)
     where = (f"the misfit sits in the {missed[0]} sensor: a fault or an effect of that sensor "
-             "outside the catalogue" if len(missed) == 1 else
+             "outside the catalogue (leave it out of [data] observed_cm and diagnose again to "
+             "see what the other sensors say)" if len(missed) == 1 else
              f"they miss the {sensor_list(missed)} sensors: the misfit is not one sensor's")
-    return (f"{', '.join(parts)} would be claimed but do not predict that sensor from the "
+    verb = "does" if len(entries) == 1 else "do"
+    return (f"{', '.join(parts)} would be claimed but {verb} not predict that sensor from the "
             f"others (more than {LOSO_NONE:g} σ, not a claim); {where}")
 
 
