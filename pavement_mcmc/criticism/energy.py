@@ -132,8 +132,10 @@ def _top_fit(problem) -> dict | None:
     cfg = problem.cfg
     if not hasattr(cfg, "path"):
         return None
+    raw = merge_overrides(cfg.raw, {"model": {"top": "measured"}})
+    raw.get("data", {}).pop("ir_sigma", None)  # no surface to observe under a measured top
     try:
-        top_cfg = load_case(cfg.path, merge_overrides(cfg.raw, {"model": {"top": "measured"}}))
+        top_cfg = load_case(cfg.path, raw)
     except (ValueError, OSError):
         return None
     exts = [e for e in problem.model.extensions

@@ -52,3 +52,21 @@ def test_a_clean_field_twin_is_consistent(tmp_path):
     eb = energy_balance(pb, refit(pb).values())
     assert not eb.surface_wrong and "consistent" in eb.verdict, eb.text()
     assert eb.top["diffusivity"] == pytest.approx(eb.diffusivity, rel=0.1)
+
+
+def test_the_measured_top_fit_of_a_case_that_observes_the_infrared_surface(tmp_path):
+    """A case with ``ir_sigma`` (the IR surface temperature observed): the energy check's
+    measured-top fit has no surface, so it leaves the IR out; it raised "T_surf_IR needs the
+    surface energy balance at the top" and `diagnose runs/grass_energy.toml` stopped there."""
+    twin = get_twin("field-none-s204")
+    path = write_twin(twin, tmp_path / "ir")
+    rows = (tmp_path / "ir" / "measurements.csv").read_text().splitlines()
+    time = [r.split(",")[0] for r in rows[1:]]
+    (tmp_path / "ir" / "extras.csv").write_text(
+        "time,T_surf_IR\n" + "".join(f"{t},{15.0 + 0.01 * i:.2f}\n" for i, t in enumerate(time)))
+    cfg = load_case(path, {**FAST, "data": {**FAST["data"], "extras": "extras.csv",
+                                            "ir_sigma": 0.5}})
+    pb = build_problem(cfg)
+    assert pb.posterior.stream("surface_ir") is not None
+    eb = energy_balance(pb, refit(pb).values())
+    assert eb.top is not None and 0.2e-6 < eb.top["diffusivity"] < 2e-6
