@@ -17,7 +17,8 @@ plate) does not, conduction is fine and the surface boundary is what is wrong.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+import copy
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -132,12 +133,13 @@ def _top_fit(problem) -> dict | None:
     cfg = problem.cfg
     if not hasattr(cfg, "path"):
         return None
-    raw = merge_overrides(cfg.raw, {"model": {"top": "measured"}})
-    raw.get("data", {}).pop("ir_sigma", None)  # no surface to observe under a measured top
     try:
-        top_cfg = load_case(cfg.path, raw)
+        top_cfg = load_case(cfg.path, merge_overrides(cfg.raw, {"model": {"top": "measured"}}))
     except (ValueError, OSError):
         return None
+    raw = copy.deepcopy(top_cfg.raw)
+    raw["data"].pop("ir_sigma", None)  # the IR sees the surface: none under a measured top
+    top_cfg = replace(top_cfg, raw=raw)
     exts = [e for e in problem.model.extensions
             if type(e).surface is Extension.surface and not e.replaces_h]
     pb = build_problem(top_cfg, extensions=exts)

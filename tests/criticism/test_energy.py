@@ -64,8 +64,9 @@ def test_the_measured_top_fit_of_a_case_that_observes_the_infrared_surface(tmp_p
     time = [r.split(",")[0] for r in rows[1:]]
     (tmp_path / "ir" / "extras.csv").write_text(
         "time,T_surf_IR\n" + "".join(f"{t},{15.0 + 0.01 * i:.2f}\n" for i, t in enumerate(time)))
-    cfg = load_case(path, {**FAST, "data": {**FAST["data"], "extras": "extras.csv",
-                                            "ir_sigma": 0.5}})
+    text = path.read_text()  # in the file, as runs/grass_energy.toml has it (not an override)
+    path.write_text(text.replace("[data]\n", '[data]\nextras = "extras.csv"\nir_sigma = 0.5\n', 1))
+    cfg = load_case(path, FAST)
     pb = build_problem(cfg)
     assert pb.posterior.stream("surface_ir") is not None
     eb = energy_balance(pb, refit(pb).values())
