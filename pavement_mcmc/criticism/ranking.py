@@ -282,6 +282,9 @@ def rank_missing_effects(
         if problem.model.top_measured and where_acts(ext) == "surface":
             skipped[name] = "acts at the surface, which the measured top boundary replaces"
             continue
+        if ext.replaces_h and problem.model.replaces_h:
+            skipped[name] = "replaces h(t), which an extension of the model already replaces"
+            continue
         fit = fit_extension(problem, base, name, h_spec)
         desc = type(ext).__doc__.strip().splitlines()[0] if type(ext).__doc__ else ext.name
         order = [e.name for e in fit.problem.model.extensions]

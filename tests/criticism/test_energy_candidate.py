@@ -87,3 +87,15 @@ def test_a_plausibility_claim_is_not_worded_as_a_forecast_claim():
     txt = forecast_sentence(e, [e], fbase)
     assert "not by its forecast" in txt and "F = 2.6 <= 15" in txt and "> 15" not in txt
 
+
+
+def test_a_model_whose_h_is_replaced_skips_the_candidates_that_replace_it(tmp_path):
+    """The energy balance already in the model (runs/grass_energy.toml): wind_convection, which
+    also replaces h(t), is skipped with the reason; it raised "two extensions both replace h(t)"
+    and `diagnose runs/grass_energy.toml` stopped."""
+    twin = forecast_twins(("wind_convection",), (501,), hours=24.0)[0]
+    cfg = load_case(write_twin(twin, tmp_path / twin.name))
+    pb = build_problem(cfg, extensions=[ENERGY])
+    rk = rank_missing_effects(pb, refit(pb).values(), ["wind_convection", "two_layer"])
+    assert "replaces h(t)" in rk.skipped["wind_convection"]
+    assert [e.name for e in rk.entries] == ["two_layer"]
