@@ -95,14 +95,20 @@ def subproblem(problem, keep: np.ndarray, fixed: dict[str, float] | None = None)
     return Problem(problem.cfg, model, space, post, problem.input_ref)
 
 
-def _folds(meas) -> list[np.ndarray]:
-    """The kept sensors of each fold (one fold per held-out sensor); a ValueError with fewer
-    than two observed sensors (a fold would keep none)."""
+def _folds(problem, start, hold: dict[str, float] | None = None):
+    """Each fold's held-out sensor ``k``, its refitted subproblem (the other sensors, the
+    parameters in ``hold`` held), its MAP fit from ``start`` and the node temperatures it
+    predicts (k not in the start profile); a ValueError with fewer than two observed sensors
+    (a fold would keep none)."""
+    meas = problem.meas
     n = meas.n_sensors
     if n < 2:
         raise ValueError(f"holding a sensor out needs at least two observed sensors; the case "
                          f"observes {n} ({', '.join(meas.sensor_labels) or 'none'})")
-    return [np.array([i for i in range(n) if i != k]) for k in range(n)]
+    for k in range(n):
+        sp = subproblem(problem, np.array([i for i in range(n) if i != k]), hold)
+        fit = refit(sp, start)
+        yield k, sp, fit, sp.model.solve(sp.space.expand(fit.theta[None, :]))
 
 
 def _rows(meas, sensors: np.ndarray) -> np.ndarray:
@@ -118,15 +124,10 @@ def leave_one_sensor_out(problem, start: dict[str, float] | None = None) -> Hold
     n = meas.n_sensors
     rmse = np.zeros(n)
     lp = []
-    folds = _folds(meas)
     sd_all = problem.posterior.marginal_sd()  # sigma, or each datum's sd with noisy inputs
-    for k, keep in enumerate(folds):
-        sp = subproblem(problem, keep)
-        fit = refit(sp, start)
-        p = sp.space.expand(fit.theta[None, :])
-        nodes = sp.model.solve(p)[0]
+    for k, sp, _, nodes in _folds(problem, start):
         i, w = interpolation_weights(sp.model.grid.x, meas.depths[k : k + 1])
-        pred = interpolate(nodes, i, w)[:, 0]
+        pred = interpolate(nodes[0], i, w)[:, 0]
         r = pred[1:] - meas.T_obs[1:, k]
         rmse[k] = float(np.sqrt(np.mean(r**2)))
         sd = sd_all[:, k]
@@ -143,13 +144,9 @@ def out_of_sensor(problem, values: dict[str, float], fixed: tuple[str, ...] = ()
     its own: does the physics fitted without a sensor, given the claimed calibration of every
     sensor, predict that sensor?"""
     meas = problem.meas
-    n = meas.n_sensors
     hold = {k: values[k] for k in fixed if k in values}
-    rmse = np.zeros(n)
-    for k, keep in enumerate(_folds(meas)):
-        sp = subproblem(problem, keep, hold)
-        fit = refit(sp, values)
-        nodes = sp.model.solve(sp.space.expand(fit.theta[None, :]))  # k not in the start profile
+    rmse = np.zeros(meas.n_sensors)
+    for k, _, fit, nodes in _folds(problem, values, hold):
         v = {**values, **fit.values()}  # and k's own offsets: the full fit's
         pred = problem.model.observe(nodes, {key: np.array([x]) for key, x in v.items()})[0]
         rmse[k] = float(np.sqrt(np.mean((pred[1:, k] - meas.T_obs[1:, k]) ** 2)))

@@ -79,7 +79,7 @@ from .holdout import leave_one_sensor_out
 from .holdout import out_of_sensor as sensor_holdout
 from .residuals import ResidualReport, analyse_point, noise_like, plain_signals
 from .unexplained import unexplained
-from .verdict import claimable_by, make_verdict, missed_sensors, sensor_list
+from .verdict import claimable_by, make_verdict, missed_sensors, sensor_list, stopped
 
 __all__ = ["DATA_THRESHOLD", "FINER_H", "THRESHOLD", "Entry", "Ranking", "finer_h_spec",
            "rank_missing_effects"]
@@ -182,7 +182,7 @@ def _none_of_these(best: Entry | None, entries: list[Entry], rep, base: Fit):
     why = []
     bound = {e.name: e.at_bound for e in entries if e.at_bound and e.data_score > DATA_THRESHOLD}
     coherent = [e.name for e in entries if e.profile and e.data_score > DATA_THRESHOLD]
-    unpredicted = [e for e in entries if e.unpredicted is not None]
+    unpredicted = stopped(entries)
     if best is not None and not best.explains:
         why.append(f"the best candidate, {best.name}, leaves RMSE {best.rmse_sigma:.2f} σ "
                    f"and lag-1 {best.rho:.2f}")
@@ -296,6 +296,7 @@ def rank_missing_effects(
     fbase = _forecasts(base, entries, forecast) if forecast is not False else None
     entries = claim_order(entries)
     lookalikes: list[str] = []
+    loso: dict[str, np.ndarray] = {}  # each look-alike's leave-one-sensor-out RMSE by sensor
     if entries and entries[0].detected:
         def key(e):
             return e.score if e.forecast_gain is None else e.claim_gain
@@ -308,11 +309,12 @@ def rank_missing_effects(
             lookalikes = [e.name for e in close]
             if holdout and problem.meas.n_sensors > 1:  # one sensor: nothing to hold out
                 for e in close:
-                    e.loso_lpd = leave_one_sensor_out(e.fit.problem, e.fit.values()).lpd
+                    ho = leave_one_sensor_out(e.fit.problem, e.fit.values())
+                    e.loso_lpd, loso[e.name] = ho.lpd, ho.rmse
                 close.sort(key=lambda e: -(e.loso_lpd if e.loso_lpd is not None else -np.inf))
                 entries = close + [e for e in entries if e not in close]
     if fbase is not None and problem.meas.n_sensors > 1:  # one sensor: no other to refit to
-        entries = out_of_sensor(entries)
+        entries = out_of_sensor(entries, known=loso)
     best = entries[0] if entries and entries[0].detected else None
     none = _none_of_these(best, entries, rep, base)
     if none is not None and best is not None and not (best.plausibility_claim or best.partial):
@@ -323,17 +325,24 @@ def rank_missing_effects(
                    points, fbase)
 
 
-def out_of_sensor(entries: list[Entry], limit: float = LOSO_NONE) -> list[Entry]:
+def out_of_sensor(entries: list[Entry], limit: float = LOSO_NONE,
+                  known: dict[str, np.ndarray] | None = None) -> list[Entry]:
     """The out-of-sensor check of the forecast rule (:mod:`.entries`): while the first entry
     is claimable, predict each sensor from the others with its model
     (:func:`~.holdout.out_of_sensor`; a per-sensor nuisance's offsets held at its fit); a fold
     worse than ``limit`` sigma marks it :attr:`~.entries.Entry.unpredicted` and the next one is
-    checked. ``entries`` in claim order; returns them in claim order (look-alike order kept)."""
+    checked. ``known``: leave-one-sensor-out RMSEs already computed by name (the look-alikes'),
+    the same figures for a candidate that holds nothing and reads its sensors at their
+    nominal depths. ``entries`` in claim order; returns
+    them in claim order (look-alike order kept)."""
     order = list(entries)
+    known = known or {}
     while entries and entries[0].detected:
         e = entries[0]
         fixed = tuple(e.values) if e.name in PER_SENSOR else ()
-        rmse = sensor_holdout(e.fit.problem, e.fit.values(), fixed)
+        same = not fixed and e.name in known and e.fit.problem.model.observes_nominal
+        rmse = (known[e.name] if same  # plain leave-one-sensor-out reads the nominal depths
+                else sensor_holdout(e.fit.problem, e.fit.values(), fixed))
         sig = float(e.fit.problem.meas.sigma)
         labels = list(e.fit.problem.meas.sensor_labels)
         e.loso_rmse_sigma = {lab: float(r / sig) for lab, r in zip(labels, rmse, strict=True)}

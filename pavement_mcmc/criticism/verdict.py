@@ -62,14 +62,18 @@ def _where(points, entries) -> str:
             "entries allow. ")
 
 
+def stopped(entries) -> list:
+    """The candidates the out-of-sensor check stopped (:attr:`~.entries.Entry.unpredicted`)."""
+    return [e for e in entries if e.unpredicted is not None]
+
+
 def missed_sensors(entries) -> list[str]:
     """The sensors the candidates stopped by the out-of-sensor check miss: every fold beyond
     :data:`~.entries.LOSO_NONE`, not only the worst (in the folds' order)."""
     out: list[str] = []
-    for e in entries:
-        if e.unpredicted is not None:
-            folds = e.loso_rmse_sigma or dict([e.unpredicted])
-            out += [s for s, r in folds.items() if r > LOSO_NONE and s not in out]
+    for e in stopped(entries):
+        folds = e.loso_rmse_sigma or dict([e.unpredicted])
+        out += [s for s, r in folds.items() if r > LOSO_NONE and s not in out]
     return out
 
 
@@ -107,7 +111,7 @@ def forecast_sentence(best, entries, fbase) -> str:
               key=lambda e: e.forecast_gain, default=None)
     if top is None:
         return ""
-    vetoed = [e for e in entries if e.unpredicted is not None and e.forecasts_better]
+    vetoed = [e for e in stopped(entries) if e.forecasts_better]
     if vetoed:
         e = max(vetoed, key=lambda x: x.claim_gain)
         return (f" Candidates forecast {period} better by the margin (best {e.name}: RMSE "
@@ -176,13 +180,12 @@ def _verdict_main(best, entries, lookalikes, rep, base, none) -> str:
             v = best.fit.values()
             txt += (f" It brings kappa = {v['kappa']:.3g} W m-1 K-1 and C = {v['C'] * 1e-6:.3g} "
                     "MJ m-3 K-1 back into the range of ground materials without a worse fit.")
-        stopped = {e.name for e in entries if e.unpredicted is not None}  # named below
-        others = [n for n in lookalikes if n != best.name and n not in stopped]
+        vetoed = stopped(entries)  # named below
+        others = [n for n in lookalikes if n != best.name and n not in {e.name for e in vetoed}]
         if others:
             alike = "forecast gain" if best.forecast_gain is not None else "score"
             txt += (f" Look-alikes with a similar {alike}: {', '.join(others)}; "
                     f"{best.name} predicts held-out sensors best.")
-        vetoed = [e for e in entries if e.unpredicted is not None]
         if vetoed:
             txt += (" Not claimed though claimable: " + ", ".join(
                 f"{e.name} (it {claimable_by(e)}, but its fit to the other sensors misses the "
@@ -245,7 +248,7 @@ def headline(rk) -> str:
         else:
             txt += "."
     elif rk.none_of_these:
-        vetoed = [e for e in rk.entries if e.unpredicted is not None]
+        vetoed = stopped(rk.entries)
         missed = missed_sensors(vetoed)
         which = ("that forecast better" if all(e.forecasts_better for e in vetoed)
                  else "the rule would claim")
