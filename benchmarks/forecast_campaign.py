@@ -1,7 +1,8 @@
 """The forecast rule's calibration campaign (issue 22) on twins of ``pavement_mcmc.synthetic``.
 
 ``python benchmarks/forecast_campaign.py [--out records.jsonl] [--clean N] [--per-effect N]
-[--off N] [--hours H] [--input-sigma] [--rules]``
+[--off N] [--hours H] [--input-sigma] [--param EFFECT.NAME=VALUE] [--rules] [--report]
+[--oracle]``
 
 Twins: :func:`~pavement_mcmc.synthetic.corpus.forecast_twins` (Case C form, loose priors, a
 diurnal h(t) that changes from day to day, 30 min rows, the last quarter of the window held
@@ -22,6 +23,14 @@ of the base model's forecast RMSE over the truth-parameter forecast on clean twi
 ground gains in the records, the same calibration for each ground variant of the rule
 (``GROUND_RULES`` of ``criticism/calibration.py``).
 
+``--oracle --records FILE ...``: no rule is run; each catalogue record gets the truth's own
+forecast gain (:func:`~pavement_mcmc.criticism.campaign.oracle`: the true model at its true
+parameters, scored like a candidate against the record's base forecast), the records are
+written to ``--out``, and the ceiling it sets is printed beside the rule's claims (``--report``
+prints it too for records that hold it). ``--param EFFECT.NAME=VALUE`` hides an effect at
+other than its default strength, ``--spec NAME=VALUE`` sets a simulator setting (both end
+up in the twins' names).
+
 ``--rules``: on the clean twins only, the base model's forecast RMSE under each future rule of
 h(t) (``diurnal``, ``persist``) against the truth-parameter forecast under the same rule, and
 the seconds of one forecast (a MAP refit of the training part).
@@ -33,6 +42,7 @@ import argparse
 import gzip
 import json
 import os
+import re
 import sys
 import tempfile
 import time
@@ -98,11 +108,34 @@ def main(argv=None) -> int:
     ap.add_argument("--records", nargs="+", metavar="FILE",
                     help="with --report: the record files to pool (.jsonl or .jsonl.gz; "
                          "docs/campaign/ holds the two campaigns behind docs/VALIDATION.md)")
+    ap.add_argument("--oracle", action="store_true",
+                    help="with --records: the truth's own forecast gain on every catalogue twin "
+                         "(criticism.campaign.oracle), the records with it written to --out, "
+                         "then the ceiling it sets beside the rule's claims")
+    ap.add_argument("--param", action="append", default=[], metavar="EFFECT.NAME=VALUE",
+                    help="a hidden effect's parameter other than its default (repeatable), e.g. "
+                         "conductivity_temperature.kappa_beta=-0.015 (three times the default)")
+    ap.add_argument("--spec", action="append", default=[], metavar="NAME=VALUE",
+                    help="a simulator setting (SyntheticSpec) other than the twins' default, "
+                         "e.g. et_available=net (evapotranspiration on R_n, the catalogue's form)")
     ap.add_argument("--seed-offset", type=int, default=0,
                     help="shift every twin's seed (1000: a fresh campaign that replicates the rates)")
     ap.add_argument("--effects", nargs="+", default=list(FORECAST_CATALOGUE),
                     help="the catalogue effects to hide (default: all of the campaign's)")
     args = ap.parse_args(argv)
+    params = {}
+    for item in args.param:
+        key, _, value = item.partition("=")
+        effect, _, name = key.partition(".")
+        if not (effect and name and value):
+            ap.error(f"--param {item!r}: expected EFFECT.NAME=VALUE")
+        params.setdefault(effect, {})[name] = float(value)
+    spec = {}
+    for item in args.spec:
+        name, _, value = item.partition("=")
+        if not (name and value):
+            ap.error(f"--spec {item!r}: expected NAME=VALUE")
+        spec[name] = value
     workdir = Path(tempfile.mkdtemp(prefix="forecast_campaign_"))
     if args.rules:
         compare_rules(forecast_twins((), tuple(600 + k for k in range(args.clean)),
@@ -113,12 +146,17 @@ def main(argv=None) -> int:
     if out.exists():
         done = {r["twin"]: r for r in map(json.loads, out.read_text().splitlines()) if r}
     records = list(done.values())
+    if args.oracle:
+        pooled = [r for p in args.records or [] for r in _load(Path(p))]
+        with_oracle(pooled, out, workdir, hours=args.hours, input_sigma=args.input_sigma,
+                    params=params, spec=spec)
+        return 0
     if args.report:
         report([r for p in args.records for r in _load(Path(p))] if args.records else records)
         return 0
     for tw in forecast_campaign_twins(args.clean, args.per_effect, args.off, hours=args.hours,
                                       input_sigma=args.input_sigma, seed_offset=args.seed_offset,
-                                      effects=args.effects):
+                                      effects=args.effects, params=params, spec=spec):
         if tw.name in done:
             continue
         t0 = time.process_time()
@@ -132,6 +170,46 @@ def main(argv=None) -> int:
               f"{rec['none_of_these']}), {rec['cpu_seconds']} s cpu", flush=True)
     report(records)
     return 0
+
+
+def with_oracle(records: list[dict], out: Path, workdir: Path, **kw) -> None:
+    """Each catalogue record with its ``oracle`` (the twin simulated again from its name), all
+    records written to ``out``; then the ceiling."""
+    from pavement_mcmc.criticism.campaign import oracle
+    from pavement_mcmc.data import load_case
+    from pavement_mcmc.synthetic.corpus import write_twin
+
+    with out.open("w") as f:
+        for r in records:
+            if r["category"] == "catalogue" and "oracle" not in r:
+                effect = r["hidden"][0]
+                seed = int(re.match(r"-s(\d+)", r["twin"][len(f"forecast-{effect}"):])[1])
+                (tw,) = forecast_twins((effect,), (seed,), **kw)
+                assert tw.name == r["twin"], (tw.name, r["twin"])
+                cfg = load_case(write_twin(tw, workdir / tw.name))
+                fc = {"rmse_sigma": r["forecast_rmse_sigma"], "rho": r["forecast_rho"],
+                      "n": r["forecast_n"]}
+                r["oracle"] = oracle(cfg, effect, fc, r["base_rmse_sigma"])
+                print(f"{r['twin']}: claimed {r['claimed']}, truth's F {r['oracle']['F']}",
+                      flush=True)
+            f.write(json.dumps(r) + "\n")
+    print_ceiling(records)
+
+
+def print_ceiling(records: list[dict]) -> None:
+    """The ceiling the truth's own forecast sets (criticism.campaign.ceiling), per effect."""
+    from pavement_mcmc.criticism.campaign import ceiling
+
+    c = ceiling(records, FORECAST_THRESHOLD)
+    if not c:
+        return
+    print(f"the truth's own forecast gain (margin {FORECAST_THRESHOLD:g}): twins where it passes "
+          "the margin, and the rule's claims there and in all")
+    for eff, v in sorted(c.items(), key=lambda kv: (kv[0] != "clean", kv[0])):
+        f = np.round(np.quantile(v["F"], [0.0, 0.5, 1.0]), 1).tolist() if v["F"] else "-"
+        print(f"  {eff:26s} truth passes {v['passes']}/{v['valid']} (of {v['n']}; F min, median,"
+              f" max {f}); claimed where it passes {v['claimed_where_passes']}/{v['passes']}, "
+              f"in all {v['claimed']}/{v['n']}" + (f"; no oracle: {v['why']}" if v["why"] else ""))
 
 
 def _load(path: Path) -> list[dict]:
@@ -158,6 +236,7 @@ def report(records: list[dict]) -> None:
         q = np.quantile(ratio, [0.0, 0.1, 0.5, 0.9, 1.0]).round(3).tolist()
         print(f"forecast RMSE / truth-parameter forecast RMSE on {ratio.size} clean twins: "
               f"min, 10 %, median, 90 %, max = {q}; within 10 %: {int(np.sum(ratio <= 1.1))}")
+    print_ceiling(records)
     cpu = np.array([r["cpu_seconds"] for r in records if "cpu_seconds" in r])
     if cpu.size:
         print(f"CPU seconds a twin ({cpu.size} twins): median {np.median(cpu):.1f}, "

@@ -281,8 +281,14 @@ def forecast_gain(base: Forecast, cand: Forecast) -> float:
     measurement sd (:func:`plugin_gain`): a forecast's errors are mostly the unknown future h(t)
     (about 2 sigma on clean twins even with the true parameters), and that density reads a 5 %
     smaller forecast error as a gain of 20 (issue 22's campaign, ``docs/VALIDATION.md`` §4)."""
-    phi = (1 + base.rho) / (1 - base.rho)
-    return float(base.n / phi * np.log(base.rmse**2 / max(cand.rmse**2, 1e-300)))
+    return gain(base.n, base.rho, base.rmse, cand.rmse)
+
+
+def gain(n: int, rho: float, rmse_base: float, rmse_cand: float) -> float:
+    """:func:`forecast_gain` from the base forecast's ``n`` and lag-1 ``rho`` and the two RMSEs
+    (any one unit)."""
+    phi = (1 + rho) / (1 - rho)
+    return float(n / phi * np.log(rmse_base**2 / max(rmse_cand**2, 1e-300)))
 
 
 def plugin_gain(base: Forecast, cand: Forecast) -> float:

@@ -308,26 +308,35 @@ def forecast_h_knots(hours: float, seed: int) -> tuple[float, ...]:
 
 
 def forecast_twins(effects: tuple[str, ...] = (), seeds=(501,), *, hours: float = 40.0,
-                   input_sigma: bool = False, category: str | None = None) -> list[Twin]:
+                   input_sigma: bool = False, category: str | None = None,
+                   params: dict[str, dict] | None = None,
+                   spec: dict | None = None) -> list[Twin]:
     """Twins for the forecast rule of the criticism: ``hours`` of 30 min rows (the last quarter
     is held out), a diurnal h(t) that changes from day to day (:func:`forecast_h_knots`), a
     shower in the fitted and in the held-out part; the inversion in Case C form (one h per
     interval, smoothness prior), loose ("wide") kappa / C priors, ``input_sigma`` optional.
-    One twin per effect (none: ``()`` gives clean twins) and seed."""
+    One twin per effect (none: ``()`` gives clean twins) and seed; ``params`` overrides an
+    effect's default parameters (``{"conductivity_temperature": {"kappa_beta": -0.015}}``),
+    and ``spec`` other :class:`SyntheticSpec` settings (``{"et_available": "net"}``); the
+    twin's name then ends in them."""
     twins = []
+    params = params or {}
     for effect in effects or (None,):
         for seed in seeds:
-            eff = {effect: {}} if effect else {}
+            eff = {effect: dict(params.get(effect, {}))} if effect else {}
+            tag = "".join(f"-{k}{v:g}" for k, v in eff.get(effect, {}).items())
+            tag += "".join(f"-{k}-{v}" for k, v in (spec or {}).items())
             rain = ((9.0, 1.0, 4.0), (hours - 8.0, 1.0, 4.0))
-            spec = SyntheticSpec(seed=seed, sigma=SIGMA, hours=hours, step_minutes=30.0,
-                                 h_knots=forecast_h_knots(hours, seed), effects=eff, rain=rain)
+            sp = SyntheticSpec(seed=seed, sigma=SIGMA, hours=hours, step_minutes=30.0,
+                               h_knots=forecast_h_knots(hours, seed), effects=eff, rain=rain,
+                               **(spec or {}))
             cat = category or ("clean" if effect is None else
                                "off_catalogue" if effect in OFF_CATALOGUE_EFFECTS else "catalogue")
-            inv = _inversion(spec, H_FORMS["caseC"], _priors("loose", spec.kappa, spec.C),
+            inv = _inversion(sp, H_FORMS["caseC"], _priors("loose", sp.kappa, sp.C),
                              FORECAST_GRID, input_sigma)
-            twins.append(Twin(name=f"forecast-{effect or 'clean'}-s{seed}", spec=spec, inversion=inv,
+            twins.append(Twin(name=f"forecast-{effect or 'clean'}-s{seed}{tag}", spec=sp, inversion=inv,
                               category=cat, hidden=(effect,) if effect else (),
-                              description=f"forecast twin; hidden: {effect or 'none'}"))
+                              description=f"forecast twin; hidden: {effect or 'none'}{tag}"))
     return twins
 
 
