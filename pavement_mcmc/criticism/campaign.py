@@ -96,16 +96,20 @@ def oracle(cfg, effect: str, base_forecast: dict, base_rmse_sigma: float,
     by forecast can claim an effect on a twin where this ``F`` is below its margin.
 
     Returns ``{"F": ..., "truth_fc_rmse_sigma": ..., "truth_rmse_sigma": ..., "valid": bool,
-    "why": str}``; ``valid`` is False (and ``F`` None) when a true parameter is not one of the
-    candidate's or the truth-parameter model misfits the twin (:data:`ORACLE_FORM_FACTOR`)."""
+    "why": str}``; ``valid`` is False (and ``F`` None) when the twin records no true value of one
+    of the candidate's parameters (it may record a derived one: the layer of ``surface_layer``
+    gives its ``R_surface``) or the truth-parameter model misfits the twin
+    (:data:`ORACLE_FORM_FACTOR`)."""
     sigma = float(cfg.measurements.sigma)
     truth = json.loads(Path(cfg.truth_path).read_text())
     pb, _ = _true_values(cfg, [effect])
-    unmatched = sorted(k for k in truth["effects"][effect] if k not in pb.space)
+    ext = next(e for e in pb.model.extensions if e.name == effect)
+    unknown = sorted(q.name for q in ext.parameters(pb.meas)
+                     if q.name not in truth["effects"][effect])
     out = {"F": None, "truth_fc_rmse_sigma": None, "truth_rmse_sigma": None, "valid": False}
-    if unmatched:
-        return {**out, "why": f"the twin's {', '.join(unmatched)} are not parameters of the "
-                              f"catalogue's {effect}"}
+    if unknown:
+        return {**out, "why": f"the twin records no true value of the catalogue's "
+                              f"{', '.join(unknown)}"}
     fit_sigma = true_rmse(cfg, [effect]) / sigma
     out["truth_rmse_sigma"] = round(fit_sigma, 4)
     if fit_sigma > ORACLE_FORM_FACTOR * base_rmse_sigma:
