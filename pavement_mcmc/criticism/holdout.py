@@ -59,6 +59,21 @@ class HoldOut:
         k = int(np.argmax(d * np.sign(total)))
         return self.labels[k], float(d[k] / total)
 
+    def change_from(self, other: HoldOut) -> str | None:
+        """A sentence on :attr:`lpd`'s change from ``other`` and the fold that carries it
+        (:meth:`carried_by`); None when there is none. When the other folds move the other way
+        the fold's part exceeds the change: both parts are given instead of a share over 100 %."""
+        carried = self.carried_by(other)
+        if carried is None:
+            return None
+        lab, share = carried
+        total = self.lpd - other.lpd
+        if share <= 1.0:
+            return f"LOSO lpd {total:+.3f}, {100 * share:.0f} % of it from the fold that holds out {lab}"
+        part = share * total
+        return (f"LOSO lpd {total:+.3f}: the fold that holds out {lab} {part:+.3f}, the other "
+                f"folds {total - part:+.3f} together")
+
     @property
     def rmse_all(self) -> float:
         return float(np.sqrt(np.mean(self.rmse**2)))

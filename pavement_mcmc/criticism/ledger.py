@@ -137,11 +137,9 @@ class Ledger:
                 f"{f'{e:.3f} ({lp:+.2f})':>18}" for e, lp in zip(h.rmse, h.lpd_sensors, strict=True)))
         first = rows[0]
         for r in rows[1:]:
-            carried = r.holdout.carried_by(first.holdout)
-            if carried is not None:
-                lab, share = carried
-                lines.append(f"{r.label}: LOSO lpd {r.holdout.lpd - first.holdout.lpd:+.3f} against "
-                             f"{first.label}, {100 * share:.0f} % of it from the fold that holds out {lab}")
+            change = r.holdout.change_from(first.holdout)
+            if change is not None:
+                lines.append(f"{r.label} against {first.label}: {change}")
         return lines
 
 
