@@ -227,6 +227,10 @@ def forecast_campaign_twins(n_clean: int = 40, n_effect: int = 10, n_off: int = 
     a subset of the catalogue effects; ``params`` an effect's parameters other than its
     defaults and ``spec`` other simulator settings
     (:func:`~pavement_mcmc.synthetic.corpus.forecast_twins`)."""
+    stray = sorted(set(params or {}) - set(effects))
+    if stray:
+        raise ValueError(f"parameters given for {', '.join(stray)}, not among the hidden effects "
+                         f"({', '.join(effects)})")
     kw = {"hours": hours, "input_sigma": input_sigma, "params": params, "spec": spec}
     s0 = seed_offset
     groups = [

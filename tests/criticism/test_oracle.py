@@ -5,6 +5,8 @@ noise, the last 10 h held out; Case C form, loose priors), seeds of its fresh ca
 
 from __future__ import annotations
 
+import pytest
+
 from pavement_mcmc.criticism.campaign import oracle
 from pavement_mcmc.criticism.entries import FORECAST_THRESHOLD
 from pavement_mcmc.criticism.fitting import refit
@@ -103,3 +105,28 @@ def test_priestley_taylor_on_the_available_energy_is_a_factor_on_the_sensible_he
     assert effect > 5.0 and apart < 0.02 * effect, (effect, apart)
     effect_rn, apart_rn = _column_runs(et_ground=False)
     assert effect_rn > 5.0 and apart_rn > 0.2 * effect_rn, (effect_rn, apart_rn)
+
+
+def test_oracle_without_record_files_keeps_the_out_file_s_records(tmp_path, capsys):
+    """``forecast_campaign.py --oracle --out FILE`` (no ``--records``) truncated FILE, the
+    campaign's own records, to nothing; it takes the records from FILE like ``--report`` and
+    writes them back (here clean ones: no twin to simulate), with the clean null printed."""
+    import gzip
+    import importlib.util
+    import json
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[2]
+    spec = importlib.util.spec_from_file_location("forecast_campaign",
+                                                  root / "benchmarks" / "forecast_campaign.py")
+    bench = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(bench)
+    with gzip.open(root / "docs/campaign/forecast_oos_s3000.jsonl.gz", "rt") as f:
+        clean = [r for r in map(json.loads, f) if r["category"] == "clean"][:3]
+    out = tmp_path / "records.jsonl"
+    out.write_text("".join(json.dumps(r) + "\n" for r in clean))
+    assert bench.main(["--oracle", "--out", str(out)]) == 0
+    assert [json.loads(line) for line in out.read_text().splitlines()] == clean
+    assert "clean" in capsys.readouterr().out
+    with pytest.raises(SystemExit):  # a misspelt effect is a usage error, not a silent default
+        bench.main(["--param", "conductivity_temprature.kappa_beta=-0.015", "--out", str(out)])
