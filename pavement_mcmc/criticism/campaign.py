@@ -92,8 +92,12 @@ def oracle(cfg, effect: str, base_forecast: dict, base_rmse_sigma: float,
     (``effect`` in the catalogue's form, every parameter at its true value, the true h(t) over
     the training part and ``rule`` after it) forecasting the held-out part, scored like a
     candidate (:func:`~.forecast.forecast_gain`) against the base fit's forecast
-    (``base_forecast``: its ``rmse_sigma``, ``rho`` and ``n``). No rule that scores candidates
-    by forecast can claim an effect on a twin where this ``F`` is below its margin.
+    (``base_forecast``: its ``rmse_sigma``, ``rho`` and ``n``). A reference, not a bound: it
+    holds its seed's clean null (the true h(t) against a fitted one: F 33.7 on the clean twin
+    of seed 3702, ``benchmarks/oracle_seed_null.py``), a fitted candidate may forecast better
+    than the truth (26 of the 70 valid oracles of ``docs/campaign/forecast_oos_s3000``, past
+    the margin where the truth is not on 2), and the ground gain, which claims too, is not
+    scored here.
 
     Returns ``{"F": ..., "truth_fc_rmse_sigma": ..., "truth_rmse_sigma": ..., "valid": bool,
     "why": str}``; ``valid`` is False (and ``F`` None) when a true parameter is not one of the
@@ -101,6 +105,11 @@ def oracle(cfg, effect: str, base_forecast: dict, base_rmse_sigma: float,
     sigma = float(cfg.measurements.sigma)
     truth = json.loads(Path(cfg.truth_path).read_text())
     pb, _ = _true_values(cfg, [effect])
+    (origin,), _ = default_origins(pb.meas.t)
+    n = (pb.meas.n_obs - 1 - split_rows(pb.meas.t, origin)) * pb.meas.n_sensors
+    if base_forecast["n"] != n:  # e.g. a twin simulated again at other hours than the record's
+        raise ValueError(f"the base forecast holds {base_forecast['n']} held-out data, this "
+                         f"twin's forecast {n}: not the twin the base forecast was made on")
     unmatched = sorted(k for k in truth["effects"][effect] if k not in pb.space)
     out = {"F": None, "truth_fc_rmse_sigma": None, "truth_rmse_sigma": None, "valid": False}
     if unmatched:
@@ -245,10 +254,10 @@ def forecast_campaign_twins(n_clean: int = 40, n_effect: int = 10, n_off: int = 
 def ceiling(records: list[dict], margin: float) -> dict:
     """Per catalogue effect, what the truth itself would score (:func:`oracle`, the records'
     ``oracle``): ``n`` twins, ``valid`` oracles among them, ``passes`` (the truth's F above
-    ``margin``: the most any forecast rule can claim) and ``claimed`` among those that pass and
-    among all. Under ``"clean"`` the same figure on clean twins, where the true model is the
-    base model and its truth-parameter forecast beats the fitted one by chance alone: the
-    null distribution of the truth's F."""
+    ``margin``: where the forecast gain is expected to claim; :func:`oracle` says why this is
+    no bound) and ``claimed`` among those that pass and among all. Under ``"clean"`` the same
+    figure on clean twins, where the true model is the base model and its truth-parameter
+    forecast beats the fitted one by chance alone: the null distribution of the truth's F."""
     out = {}
     null = [gain(r["forecast_n"], r["forecast_rho"], r["forecast_ratio"], 1.0)
             for r in records if r["category"] == "clean" and "forecast_ratio" in r]
