@@ -20,6 +20,7 @@ A later batch engine may map :func:`diagnose_twin` over the twins in parallel.
 from __future__ import annotations
 
 import json
+import re
 import time
 from pathlib import Path
 
@@ -253,11 +254,13 @@ def forecast_campaign_twins(n_clean: int = 40, n_effect: int = 10, n_off: int = 
 
 def ceiling(records: list[dict], margin: float) -> dict:
     """Per catalogue effect, what the truth itself would score (:func:`oracle`, the records'
-    ``oracle``): ``n`` twins, ``valid`` oracles among them, ``passes`` (the truth's F above
-    ``margin``: where the forecast gain is expected to claim; :func:`oracle` says why this is
-    no bound) and ``claimed`` among those that pass and among all. Under ``"clean"`` the same
-    figure on clean twins, where the true model is the base model and its truth-parameter
-    forecast beats the fitted one by chance alone: the null distribution of the truth's F."""
+    ``oracle``; twins of other strengths or simulator settings under their own key, the effect
+    and their names' tag, e.g. ``conductivity_temperature-kappa_beta-0.015``): ``n`` twins,
+    ``valid`` oracles among them, ``passes`` (the truth's F above ``margin``: where the
+    forecast gain is expected to claim; :func:`oracle` says why this is no bound) and
+    ``claimed`` among those that pass and among all. Under ``"clean"`` the same figure on
+    clean twins, where the true model is the base model and its truth-parameter forecast beats
+    the fitted one by chance alone: the null distribution of the truth's F."""
     out = {}
     null = [gain(r["forecast_n"], r["forecast_rho"], r["forecast_ratio"], 1.0)
             for r in records if r["category"] == "clean" and "forecast_ratio" in r]
@@ -269,7 +272,9 @@ def ceiling(records: list[dict], margin: float) -> dict:
         if r["category"] != "catalogue" or "oracle" not in r:
             continue
         eff, o = r["hidden"][0], r["oracle"]
-        c = out.setdefault(eff, {"n": 0, "valid": 0, "passes": 0, "claimed_where_passes": 0,
+        # twins at other strengths or settings (their names' tags) are rows of their own
+        key = eff + re.sub(r"^.*?-s\d+", "", r["twin"])
+        c = out.setdefault(key, {"n": 0, "valid": 0, "passes": 0, "claimed_where_passes": 0,
                                  "claimed": 0, "F": [], "why": ""})
         c["n"] += 1
         c["claimed"] += r["claimed"] == eff

@@ -141,3 +141,24 @@ def test_oracle_without_record_files_keeps_the_out_file_s_records(tmp_path, caps
     assert "clean" in capsys.readouterr().out
     with pytest.raises(SystemExit):  # a misspelt effect is a usage error, not a silent default
         bench.main(["--param", "conductivity_temprature.kappa_beta=-0.015", "--out", str(out)])
+
+
+def test_the_ceiling_keeps_twins_of_other_strengths_apart():
+    """Pooled records (``--report --records`` of the 1x campaign and of the 3x kappa(T) one)
+    counted kappa(T) at 1x and at 3x as one effect (and evapotranspiration on R_n - G with
+    it on R_n): the twin's name tag keeps them apart."""
+    from pavement_mcmc.criticism.campaign import ceiling
+
+    def rec(twin, f, claimed):
+        return {"twin": twin, "category": "catalogue", "hidden": ["conductivity_temperature"],
+                "claimed": claimed, "oracle": {"F": f, "valid": True, "why": ""}}
+
+    records = [rec("forecast-conductivity_temperature-s3702", 32.2, None),
+               rec("forecast-conductivity_temperature-s3704", -8.7, None),
+               rec("forecast-conductivity_temperature-s3704-kappa_beta-0.015", 26.3,
+                   "conductivity_temperature")]
+    c = ceiling(records, FORECAST_THRESHOLD)
+    assert sorted(c) == ["conductivity_temperature", "conductivity_temperature-kappa_beta-0.015"]
+    assert (c["conductivity_temperature"]["n"], c["conductivity_temperature"]["passes"]) == (2, 1)
+    strong = c["conductivity_temperature-kappa_beta-0.015"]
+    assert (strong["n"], strong["passes"], strong["claimed_where_passes"]) == (1, 1, 1)
