@@ -23,11 +23,12 @@ of the base model's forecast RMSE over the truth-parameter forecast on clean twi
 ground gains in the records, the same calibration for each ground variant of the rule
 (``GROUND_RULES`` of ``criticism/calibration.py``).
 
-``--oracle --records FILE ...``: no rule is run; each catalogue record gets the truth's own
-forecast gain (:func:`~pavement_mcmc.criticism.campaign.oracle`: the true model at its true
-parameters, scored like a candidate against the record's base forecast), the records are
-written to ``--out``, and the ceiling it sets is printed beside the rule's claims (``--report``
-prints it too for records that hold it). ``--param EFFECT.NAME=VALUE`` hides an effect at
+``--oracle [--records FILE ...]``: no rule is run; each catalogue record (of ``--records``,
+else of ``--out``) gets the truth's own forecast gain
+(:func:`~pavement_mcmc.criticism.campaign.oracle`: the true model at its true parameters,
+scored like a candidate against the record's base forecast), the records are written to
+``--out``, and the ceiling it sets is printed beside the rule's claims (``--report`` prints it
+too for records that hold it). ``--param EFFECT.NAME=VALUE`` hides an effect at
 other than its default strength, ``--spec NAME=VALUE`` sets a simulator setting (both end
 up in the twins' names).
 
@@ -109,9 +110,9 @@ def main(argv=None) -> int:
                     help="with --report: the record files to pool (.jsonl or .jsonl.gz; "
                          "docs/campaign/ holds the two campaigns behind docs/VALIDATION.md)")
     ap.add_argument("--oracle", action="store_true",
-                    help="with --records: the truth's own forecast gain on every catalogue twin "
-                         "(criticism.campaign.oracle), the records with it written to --out, "
-                         "then the ceiling it sets beside the rule's claims")
+                    help="the truth's own forecast gain on every catalogue twin of --records "
+                         "(else of --out) (criticism.campaign.oracle), the records with it "
+                         "written to --out, then the ceiling it sets beside the rule's claims")
     ap.add_argument("--param", action="append", default=[], metavar="EFFECT.NAME=VALUE",
                     help="a hidden effect's parameter other than its default (repeatable), e.g. "
                          "conductivity_temperature.kappa_beta=-0.015 (three times the default)")
@@ -127,15 +128,24 @@ def main(argv=None) -> int:
     for item in args.param:
         key, _, value = item.partition("=")
         effect, _, name = key.partition(".")
-        if not (effect and name and value):
-            ap.error(f"--param {item!r}: expected EFFECT.NAME=VALUE")
-        params.setdefault(effect, {})[name] = float(value)
+        try:
+            number = float(value)
+        except ValueError:
+            number = None
+        if not (effect and name and number is not None):
+            ap.error(f"--param {item!r}: expected EFFECT.NAME=VALUE with a number")
+        params.setdefault(effect, {})[name] = number
     spec = {}
     for item in args.spec:
         name, _, value = item.partition("=")
         if not (name and value):
             ap.error(f"--spec {item!r}: expected NAME=VALUE")
         spec[name] = value
+    try:  # bad --param / --spec: a usage error now, not at the first twin that uses them
+        forecast_campaign_twins(1, 1, 0, hours=args.hours, effects=args.effects, params=params,
+                                spec=spec)
+    except ValueError as e:
+        ap.error(str(e))
     workdir = Path(tempfile.mkdtemp(prefix="forecast_campaign_"))
     if args.rules:
         compare_rules(forecast_twins((), tuple(600 + k for k in range(args.clean)),
@@ -146,8 +156,8 @@ def main(argv=None) -> int:
     if out.exists():
         done = {r["twin"]: r for r in map(json.loads, out.read_text().splitlines()) if r}
     records = list(done.values())
-    if args.oracle:
-        pooled = [r for p in args.records or [] for r in _load(Path(p))]
+    if args.oracle:  # the records of --records, else those of --out (rewritten with the oracle)
+        pooled = [r for p in args.records for r in _load(Path(p))] if args.records else records
         with_oracle(pooled, out, workdir, hours=args.hours, input_sigma=args.input_sigma,
                     params=params, spec=spec)
         return 0
@@ -185,7 +195,9 @@ def with_oracle(records: list[dict], out: Path, workdir: Path, **kw) -> None:
                 effect = r["hidden"][0]
                 seed = int(re.match(r"-s(\d+)", r["twin"][len(f"forecast-{effect}"):])[1])
                 (tw,) = forecast_twins((effect,), (seed,), **kw)
-                assert tw.name == r["twin"], (tw.name, r["twin"])
+                if tw.name != r["twin"]:
+                    raise SystemExit(f"record {r['twin']} is not the twin {tw.name} of these "
+                                     "settings: give its --param / --spec")
                 cfg = load_case(write_twin(tw, workdir / tw.name))
                 fc = {"rmse_sigma": r["forecast_rmse_sigma"], "rho": r["forecast_rho"],
                       "n": r["forecast_n"]}

@@ -33,8 +33,9 @@ from pathlib import Path
 import numpy as np
 
 from ..data.toml_writer import to_toml
-from .effects import EFFECTS, NEW_CATALOGUE_EFFECTS, OFF_CATALOGUE_EFFECTS
+from .effects import EFFECTS, NEW_CATALOGUE_EFFECTS, OFF_CATALOGUE_EFFECTS, resolve_effects
 from .io import write_case
+from .settings import spec_overrides
 from .simulate import PAPER_H_KNOTS, SyntheticSpec
 
 __all__ = [
@@ -296,6 +297,7 @@ def field_twins() -> list[Twin]:
 _FC_H_DIURNAL = (8.0, 7.0, 9.0, 14.0, 16.0, 11.0)  # at 00, 04, ... 20 h: breezier afternoons
 FORECAST_GRID = {"dx": 0.005, "dt": 120.0, "scheme": "cn"}
 """The inversion's grid for the forecast twins (30 min rows)."""
+_FC_FIXED = ("seed", "sigma", "hours", "step_minutes", "h_knots", "effects", "rain")
 
 
 def forecast_h_knots(hours: float, seed: int) -> tuple[float, ...]:
@@ -321,15 +323,18 @@ def forecast_twins(effects: tuple[str, ...] = (), seeds=(501,), *, hours: float 
     twin's name then ends in them."""
     twins = []
     params = params or {}
+    spec = spec_overrides(spec, _FC_FIXED)
     for effect in effects or (None,):
         for seed in seeds:
             eff = {effect: dict(params.get(effect, {}))} if effect else {}
             tag = "".join(f"-{k}{v:g}" for k, v in eff.get(effect, {}).items())
-            tag += "".join(f"-{k}-{v}" for k, v in (spec or {}).items())
+            tag += "".join(f"-{k}-{v}" for k, v in spec.items())
             rain = ((9.0, 1.0, 4.0), (hours - 8.0, 1.0, 4.0))
             sp = SyntheticSpec(seed=seed, sigma=SIGMA, hours=hours, step_minutes=30.0,
                                h_knots=forecast_h_knots(hours, seed), effects=eff, rain=rain,
-                               **(spec or {}))
+                               **spec)
+            # an unknown or bad parameter raises here, not when the twin is simulated
+            resolve_effects(eff, sp.kappa, sp.C, sp.depths_cm, sp.bottom_cm)
             cat = category or ("clean" if effect is None else
                                "off_catalogue" if effect in OFF_CATALOGUE_EFFECTS else "catalogue")
             inv = _inversion(sp, H_FORMS["caseC"], _priors("loose", sp.kappa, sp.C),
