@@ -4,6 +4,7 @@
     nice -n 5 python benchmarks/energy_records.py [grass|desert ...]
     nice -n 5 python benchmarks/energy_records.py daily grass|desert [--out F]
     nice -n 5 python benchmarks/energy_records.py gain [grass|desert ...]
+    nice -n 5 python benchmarks/energy_records.py rolling [grass]
 
 For each record (runs/grass*.toml: 72 h from 2020-04-05 00Z; runs/desert*.toml: 72 h from
 2025-07-11 07Z) and each model it prints the in-sample RMSE (degC and in sigma), kappa, C,
@@ -19,6 +20,11 @@ Priestley-Taylor coefficient keeps the last day's value.
 48 h refitted, the last 24 h of the 72 h window predicted from the forcing; F = (n/phi)
 log(MSE_base / MSE_candidate), claimed above 15) of each energy-balance model of :data:`GAIN`
 against the base model of the window, with the in-sample RMSE.
+
+``rolling``: the base and the energy-balance case fitted on 72 h windows a day apart over the
+record (grass: 15 windows from 2020-03-29 00Z), each forecasting the next day as above; per day
+the two forecast RMSEs and F on that day's errors (n/phi from the base errors' lag-1), and F
+summed over the days.
 
 ``daily``: the energy-balance case of a record (:data:`DAILY`) fitted by MAP on every daily
 window (the 18 grass days from 2020-03-29 00Z; the 30 July desert days, 2025-07-01 07Z ...
@@ -127,6 +133,7 @@ def run(toml: Path, exts: list[str] | None = None, overrides: dict | None = None
     fpb = build_problem(fcfg, extensions=exts)
     pred = fpb.model.predict(forecast_values(fpb, pb, v))[0]
     later = fpb.meas.t > pb.meas.t[-1] + 1.0
+    out["forecast_residuals"] = pred[later] - fpb.meas.T_obs[later]
     out["forecast_rmse"] = float(np.sqrt(np.mean((pred[later] - fpb.meas.T_obs[later]) ** 2)))
     out["forecast_rmse_sensor"] = np.sqrt(np.mean((pred[later] - fpb.meas.T_obs[later]) ** 2,
                                                   axis=0)).round(3).tolist()
@@ -229,6 +236,36 @@ def daily(record: str, out: Path | None = None) -> list[dict]:
     return sorted(rows, key=lambda r: r["start_h"])
 
 
+#: record -> (base TOML, energy-balance TOML, first window start h, number of windows) of
+#: ``rolling``: 72 h windows a day apart, each forecasting the day after it
+ROLLING = {"grass": ("grass.toml", "grass_energy.toml", 0.0, 15)}
+
+
+def rolling(record: str) -> None:
+    """Next-day forecasts of the base and the energy-balance case from 72 h windows a day
+    apart (module doc): per day the two forecast RMSEs and F on that day's errors, then F
+    pooled over the days (the sum: the days' held-out data do not overlap)."""
+    from pavement_mcmc.criticism.forecast import gain as forecast_gain
+    from pavement_mcmc.criticism.residuals import pooled_lag1
+
+    base_name, eb_name, h0, n = ROLLING[record]
+    total = 0.0
+    for d in range(n):
+        a = h0 + DAY_H * d
+        window = {"data": {"window_hours": [a, a + 3 * DAY_H]}}
+        rb = run(REPO / "runs" / base_name, None, window)
+        re_ = run(REPO / "runs" / eb_name, None, window)
+        rho = float(pooled_lag1(rb["forecast_residuals"]))
+        m = rb["forecast_residuals"].size
+        f = forecast_gain(m, rho, rb["forecast_rmse"], re_["forecast_rmse"])
+        total += f
+        print(f"{record} window from {a:.0f} h: forecast base {rb['forecast_rmse']:.3f} C, "
+              f"energy balance {re_['forecast_rmse']:.3f} C; in-sample {rb['rmse']:.3f} / "
+              f"{re_['rmse']:.3f} C; lag-1 {rho:.2f}, n/phi {m * (1 - rho) / (1 + rho):.1f}, "
+              f"F {f:+.1f} (pooled {total:+.1f}); EB kappa {re_['kappa']:.3g}, C "
+              f"{re_['C'] / 1e6:.3g} MJ", flush=True)
+
+
 def spread(rows: list[dict], key: str) -> dict:
     """Median of ``key`` over the days, its range relative to the median, and the share of
     days within +-20 % of it."""
@@ -254,6 +291,9 @@ def main_daily(args: list[str]) -> None:
 if __name__ == "__main__":
     if sys.argv[1:2] == ["daily"]:
         main_daily(sys.argv[2:])
+    elif sys.argv[1:2] == ["rolling"]:
+        for rec in sys.argv[2:] or list(ROLLING):
+            rolling(rec)
     elif sys.argv[1:2] == ["gain"]:
         for rec in sys.argv[2:] or list(GAIN):
             gain(rec)
