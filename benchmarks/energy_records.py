@@ -22,9 +22,9 @@ log(MSE_base / MSE_candidate), claimed above 15) of each energy-balance model of
 against the base model of the window, with the in-sample RMSE.
 
 ``rolling``: the base and the energy-balance case fitted on 72 h windows a day apart over the
-record (grass: 15 windows from 2020-03-29 00Z), each forecasting the next day as above; per day
-the two forecast RMSEs and F on that day's errors (n/phi from the base errors' lag-1), and F
-summed over the days.
+record (grass: 15 windows from 2020-03-29 00Z; desert: 27 from 2025-07-01 07Z), each
+forecasting the next day as above; per day the two forecast RMSEs and F on that day's errors
+(n/phi from the base errors' lag-1), and F summed over the days.
 
 ``daily``: the energy-balance case of a record (:data:`DAILY`) fitted by MAP on every daily
 window (the 18 grass days from 2020-03-29 00Z; the 30 July desert days, 2025-07-01 07Z ...
@@ -238,7 +238,8 @@ def daily(record: str, out: Path | None = None) -> list[dict]:
 
 #: record -> (base TOML, energy-balance TOML, first window start h, number of windows) of
 #: ``rolling``: 72 h windows a day apart, each forecasting the day after it
-ROLLING = {"grass": ("grass.toml", "grass_energy.toml", 0.0, 15)}
+ROLLING = {"grass": ("grass.toml", "grass_energy.toml", 0.0, 15),
+           "desert": ("desert.toml", "desert_energy.toml", 2928.0, 27)}
 
 
 def rolling(record: str) -> None:
