@@ -23,6 +23,8 @@ both count).
 
 from __future__ import annotations
 
+import re
+
 from scipy import stats
 
 from .entries import DATA_THRESHOLD, THRESHOLD
@@ -112,6 +114,14 @@ def _rate(k: int, n: int) -> dict:
     return {"k": k, "n": n, "ci95": [round(lo, 3), round(hi, 3)]}
 
 
+def row_key(record: dict) -> str:
+    """The row a catalogue twin's record counts in: its hidden effect, and the tag its name
+    carries when the twin is of another strength or simulator setting
+    (``conductivity_temperature-kappa_beta-0.015``; :func:`~pavement_mcmc.synthetic.corpus.
+    forecast_twins`), so that pooled campaigns keep them apart."""
+    return record["hidden"][0] + re.sub(r"^.*?-s\d+", "", record["twin"])
+
+
 def rates_at(records: list[dict], margin: float, insample: bool = False,
              ground: str | None = None) -> dict:
     """False claims on clean twins, claims of the hidden effect per catalogue effect and for the
@@ -124,10 +134,10 @@ def rates_at(records: list[dict], margin: float, insample: bool = False,
           for c in ("clean", "catalogue", "off_catalogue")}
     false = [r["twin"] for r in by["clean"] if claim(r) is not None]
     effects = {}
-    for eff in sorted({r["hidden"][0] for r in by["catalogue"]}):
-        rs = [r for r in by["catalogue"] if r["hidden"][0] == eff]
-        effects[eff] = _rate(sum(claim(r) == eff for r in rs), len(rs))
-    surf = [r for r in by["catalogue"] if r["hidden"][0] in SURFACE]
+    for key in sorted({row_key(r) for r in by["catalogue"]}):
+        rs = [r for r in by["catalogue"] if row_key(r) == key]
+        effects[key] = _rate(sum(claim(r) == r["hidden"][0] for r in rs), len(rs))
+    surf = [r for r in by["catalogue"] if row_key(r) in SURFACE]  # at their default strength
     off = by["off_catalogue"]
     return {
         "margin": margin,

@@ -20,7 +20,6 @@ A later batch engine may map :func:`diagnose_twin` over the twins in parallel.
 from __future__ import annotations
 
 import json
-import re
 import time
 from pathlib import Path
 
@@ -30,6 +29,7 @@ from ..data import load_case
 from ..physics.hbasis import FINER_H
 from ..posterior import build_problem
 from ..synthetic.corpus import forecast_twins, write_twin
+from .calibration import row_key
 from .fitting import refit
 from .forecast import (
     default_origins,
@@ -277,7 +277,7 @@ def ceiling(records: list[dict], margin: float) -> dict:
             continue
         eff, o = r["hidden"][0], r["oracle"]
         # twins at other strengths or settings (their names' tags) are rows of their own
-        key = eff + re.sub(r"^.*?-s\d+", "", r["twin"])
+        key = row_key(r)
         c = out.setdefault(key, {"n": 0, "valid": 0, "passes": 0, "claimed_where_passes": 0,
                                  "claimed": 0, "F": [], "why": ""})
         c["n"] += 1
@@ -300,10 +300,10 @@ def rates(records: list[dict]) -> dict:
     off = [r for r in records if r["category"] == "off_catalogue"]
     false = [r for r in clean if r["claimed"] not in (None, FINER_H)]
     per_effect = {}
-    for eff in sorted({r["hidden"][0] for r in cat}):
-        rs = [r for r in cat if r["hidden"][0] == eff]
-        per_effect[eff] = {
-            "first": sum(r["claimed"] == eff for r in rs),
+    for key in sorted({row_key(r) for r in cat}):
+        rs = [r for r in cat if row_key(r) == key]
+        per_effect[key] = {
+            "first": sum(r["claimed"] == r["hidden"][0] for r in rs),
             "n": len(rs),
             "rmse_ratio": [round(r.get("rmse_ratio", float("nan")), 3) for r in rs],
         }

@@ -327,7 +327,7 @@ def forecast_twins(effects: tuple[str, ...] = (), seeds=(501,), *, hours: float 
     for effect in effects or (None,):
         for seed in seeds:
             eff = {effect: dict(params.get(effect, {}))} if effect else {}
-            tag = "".join(f"-{k}{v:g}" for k, v in eff.get(effect, {}).items())
+            tag = "".join(f"-{k}{v:.12g}" for k, v in eff.get(effect, {}).items())
             tag += "".join(f"-{k}-{v}" for k, v in spec.items())
             rain = ((9.0, 1.0, 4.0), (hours - 8.0, 1.0, 4.0))
             sp = SyntheticSpec(seed=seed, sigma=SIGMA, hours=hours, step_minutes=30.0,

@@ -177,3 +177,28 @@ def test_the_ceiling_keeps_twins_of_other_strengths_apart():
     assert (c["conductivity_temperature"]["n"], c["conductivity_temperature"]["passes"]) == (2, 1)
     strong = c["conductivity_temperature-kappa_beta-0.015"]
     assert (strong["n"], strong["passes"], strong["claimed_where_passes"]) == (1, 1, 1)
+
+
+def test_rates_keep_twins_of_other_strengths_apart_and_out_of_the_surface_family():
+    """The same pooling in the claim rates (``rates`` as run, ``rates_at`` re-applied): the 3x
+    kappa(T) twins counted as 1x ones (n = 20) and entered the surface family's rate, whose
+    target is at the default strength."""
+    from pavement_mcmc.criticism.calibration import rates_at
+    from pavement_mcmc.criticism.campaign import rates
+
+    def rec(twin, claimed):
+        return {"twin": twin, "category": "catalogue", "hidden": ["conductivity_temperature"],
+                "claimed": claimed, "partial": False, "none_of_these": claimed is None,
+                "entries": {}}
+
+    records = [rec("forecast-conductivity_temperature-s3704", None),
+               rec("forecast-conductivity_temperature-s3704-kappa_beta-0.015",
+                   "conductivity_temperature")]
+    as_run = rates(records)["true_first"]
+    assert as_run["conductivity_temperature"]["n"] == 1
+    assert as_run["conductivity_temperature"]["first"] == 0
+    assert as_run["conductivity_temperature-kappa_beta-0.015"]["first"] == 1
+    again = rates_at(records, FORECAST_THRESHOLD)
+    assert sorted(again["effects"]) == ["conductivity_temperature",
+                                        "conductivity_temperature-kappa_beta-0.015"]
+    assert again["surface"]["n"] == 1, again["surface"]
