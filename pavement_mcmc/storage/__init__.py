@@ -11,7 +11,9 @@ Modules: :mod:`.records` (:class:`RunState`, :class:`RunData` and their JSON enc
 :mod:`.base` (the :class:`Store` interface: buffered writing, the commit record, consistent
 reading), :mod:`.integrity` (the commit's digest, :class:`StoreDamaged`,
 :class:`StoreWriteFailed`), :mod:`.memory` (:class:`MemoryStore`), :mod:`.hdf5`
-(:class:`HDF5Store` in SWMR mode and :func:`read_run`, which reads a finished or a live run).
+(:class:`HDF5Store` in SWMR mode and :func:`read_run`, which reads a finished or a live run),
+:mod:`.swmr` (opening a file for reading with HDF5's metadata retries bounded), :mod:`.writer`
+(who writes a file, and whether that process lives).
 """
 
 from __future__ import annotations

@@ -42,6 +42,7 @@ from .integrity import (
     unreadable,
 )
 from .records import RunData, RunState, _dumps, _loads
+from .swmr import open_swmr_reader
 from .writer import _ABANDONED, _pid_alive, _writer_record
 
 
@@ -232,14 +233,13 @@ class HDF5Store(Store):
     def open_readonly(cls, path: str | os.PathLike) -> HDF5Store:
         """Open a run for reading (SWMR); works while another process writes it."""
         path = os.fspath(path)
-        h5py = _h5py()
         try:
             try:
-                f = h5py.File(path, "r", libver="latest", swmr=True)
+                f = open_swmr_reader(path)
             except OSError as err:  # e.g. file systems without locking, or a stale lock
                 if "lock" not in str(err):
                     raise
-                f = h5py.File(path, "r", libver="latest", swmr=True, locking=False)
+                f = open_swmr_reader(path, locking=False)
         except FileNotFoundError:
             raise
         except OSError as err:

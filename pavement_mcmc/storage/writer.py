@@ -7,6 +7,7 @@ import json
 import os
 
 from .integrity import unreadable
+from .swmr import open_swmr_reader
 
 #: run files this process gave up writing after a failed write: their writer is not alive
 _ABANDONED: set[str] = set()
@@ -14,10 +15,8 @@ _ABANDONED: set[str] = set()
 
 def _writer_record(path: str) -> dict:
     """The pid and host recorded by a run file's writer ({} if none or unreadable)."""
-    import h5py
-
     try:
-        with h5py.File(path, "r", swmr=True) as fr:
+        with open_swmr_reader(path) as fr:
             raw = bytes(fr["writer"][...]).rstrip(b"\0")
         return json.loads(raw) if raw else {}
     except (KeyError, OSError, RuntimeError, ValueError) as err:

@@ -219,3 +219,56 @@ def test_the_reason_of_a_failed_write_is_one_line_in_the_systems_words():
     assert system_reason(err) == "File too large (errno 27)"
     assert system_reason(OSError(28, "x")) == "No space left on device (errno 28)"
     assert system_reason(RuntimeError("first\nsecond")) == "first"
+
+
+#: flip a byte inside every object header of a run (addresses from HDF5 itself) and read it
+FLIP_HEADERS = textwrap.dedent(
+    """
+    import json, shutil, sys, time
+    import h5py
+    from pavement_mcmc.storage import StoreDamaged, read_run
+    import numpy as np
+    src, dst = sys.argv[1], sys.argv[2]
+    straight = read_run(src)
+    with h5py.File(src, "r") as f:
+        addrs = {}
+        f.visititems(lambda name, obj: addrs.update({name: h5py.h5o.get_info(obj.id).addr}))
+    out = {}
+    for name, addr in sorted(addrs.items()):
+        shutil.copy(src, dst)
+        with open(dst, "r+b") as fh:
+            fh.seek(addr + 24)
+            b = fh.read(1)
+            fh.seek(addr + 24)
+            fh.write(bytes([b[0] ^ 0xFF]))
+        t = time.perf_counter()
+        try:
+            run = read_run(dst)
+            same = all(np.array_equal(getattr(run, k), getattr(straight, k))
+                       for k in ("chain", "log_prob", "blobs", "accepted"))
+            what = "read intact" if same and run.state.rng_state == straight.state.rng_state \
+                else "read altered"
+        except StoreDamaged as err:
+            what = "refused: " + str(err)
+        out[name] = [what, time.perf_counter() - t]
+    print(json.dumps(out))
+    """
+)
+
+
+def test_a_damaged_object_header_is_refused_in_seconds_not_waited_on(toy, tmp_path):
+    """A SWMR reader retried a metadata block failing its checksum 100 times, waiting about
+    2^k ns before attempt k: a flipped byte in a dataset's object header kept `read_run`
+    waiting for hours (storage/swmr.py). Now each is refused within 5 s, or read whole when the
+    commit does not use it (the other state slot)."""
+    (tmp_path / "flip.py").write_text(FLIP_HEADERS)
+    p = _run([str(tmp_path / "flip.py"), str(toy), str(tmp_path / "bad.h5")], None, tmp_path)
+    assert p.returncode == 0, p.stderr[-2000:]
+    out = json.loads(p.stdout)
+    assert len(out) >= 10 and {"chain", "commit", "state/json0"} <= set(out), out
+    for name, (what, seconds) in out.items():
+        assert what == "read intact" or (what.startswith("refused") and "damaged" in what), \
+            (name, what)
+        assert seconds < 5, (name, seconds)
+    refused = {name for name, (what, _) in out.items() if what.startswith("refused")}
+    assert {"chain", "log_prob", "blobs", "accepted", "commit"} <= refused, out
