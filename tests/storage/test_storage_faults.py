@@ -272,3 +272,47 @@ def test_a_damaged_object_header_is_refused_in_seconds_not_waited_on(toy, tmp_pa
         assert seconds < 5, (name, seconds)
     refused = {name for name, (what, _) in out.items() if what.startswith("refused")}
     assert {"chain", "log_prob", "blobs", "accepted", "commit"} <= refused, out
+
+
+#: load a second copy of h5py's HDF5 (another wheel's, or the system's, would do the same), then
+#: open a run for reading and print the metadata read attempts in force on the open file
+TWO_HDF5 = textwrap.dedent(
+    """
+    import ctypes, glob, json, os, shutil, sys
+    import h5py
+    libs = os.path.join(os.path.dirname(h5py.__file__), os.pardir, "h5py.libs")
+    ours = [p for p in glob.glob(libs + "/libhdf5-*") if "_hl" not in os.path.basename(p)]
+    if not ours:
+        print(json.dumps({"skip": "h5py has no bundled libhdf5 here"}))
+        sys.exit(0)
+    shutil.copy(ours[0], sys.argv[2])  # another path, another copy of the library in memory
+    other = ctypes.CDLL(sys.argv[2])
+    from pavement_mcmc.storage.swmr import READ_ATTEMPTS, open_swmr_reader
+    with open_swmr_reader(sys.argv[1]) as f:
+        fapl = f.id.get_access_plist()
+        n = ctypes.c_uint(0)
+        ok = ctypes.CDLL(ours[0]).H5Pget_metadata_read_attempts(ctypes.c_int64(fapl.id),
+                                                                ctypes.byref(n))
+    print(json.dumps({"ok": ok, "attempts": n.value, "expected": READ_ATTEMPTS}))
+    """
+)
+
+
+def h5py_file() -> str:
+    import h5py
+
+    return h5py.__file__
+
+
+def test_the_read_attempts_are_set_in_h5pys_hdf5_with_another_hdf5_loaded(toy, tmp_path):
+    """swmr.py took the first libhdf5 in the memory map: with another one loaded (here a copy of
+    h5py's own, at a path sorting first), it called that library with h5py's property list,
+    which failed, and the reader kept HDF5's 100 attempts (hours on a damaged header)."""
+    assert str(tmp_path) < str(Path(h5py_file()).parent)  # the copy's path is met first
+    (tmp_path / "two.py").write_text(TWO_HDF5)
+    p = _run([str(tmp_path / "two.py"), str(toy), str(tmp_path / "libhdf5-other.so")], None, tmp_path)
+    assert p.returncode == 0, p.stderr[-2000:]
+    out = json.loads(p.stdout)
+    if "skip" in out:
+        pytest.skip(out["skip"])
+    assert out["ok"] >= 0 and out["attempts"] == out["expected"] == 28, (out, p.stderr[-2000:])
