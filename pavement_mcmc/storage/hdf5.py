@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import json
 import os
+import shutil
 import socket
 import time
 
@@ -226,8 +227,8 @@ class HDF5Store(Store):
             os.unlink(tmp)
             raise failed from err
         new.close()
-        os.replace(path, path + ".crashed")
-        os.replace(tmp, path)
+        _keep_aside(path, path + ".crashed")
+        os.replace(tmp, path)  # one rename: killed at any moment, a run is at ``path``
 
     @classmethod
     def open_readonly(cls, path: str | os.PathLike) -> HDF5Store:
@@ -383,6 +384,19 @@ class HDF5Store(Store):
         rec = [n_saved, slot, generation, *digest][: ds.shape[0]]  # format 1: no digest
         ds[...] = np.array(rec, dtype=np.int64)
         self._f.flush()
+
+
+def _keep_aside(path: str, aside: str) -> None:
+    """Make ``aside`` a second name of ``path`` (a copy where hard links are not supported),
+    replacing an older ``aside``; ``path`` itself is left in place."""
+    tmp = aside + ".new"
+    if os.path.lexists(tmp):
+        os.unlink(tmp)
+    try:
+        os.link(path, tmp)
+    except OSError:  # no hard links on this file system (or across a mount)
+        shutil.copyfile(path, tmp)
+    os.replace(tmp, aside)
 
 
 def read_run(path: str | os.PathLike) -> RunData:

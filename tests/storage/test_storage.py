@@ -369,3 +369,52 @@ def test_a_zombie_writer_is_not_alive() -> None:
         live.kill()
         live.wait()
         dead.wait()
+
+
+#: argv[2] == "write": write 3 blocks of 7 rows, then die by SIGKILL (the file is left open);
+#: "recover": reopen it, dying by SIGKILL when the recovery renames its fresh copy into place
+KILLED = textwrap.dedent(
+    """
+    import os, signal, sys
+    import numpy as np
+    from pavement_mcmc.storage import HDF5Store, RunState
+    path, what = sys.argv[1], sys.argv[2]
+    if what == "write":
+        store = HDF5Store.create(path, ["a", "b"], ["r"], 3, {})
+        for t in range(21):
+            x = t * 100.0 + np.arange(3)[:, None] * 10.0 + np.arange(2)
+            store.append(x, np.full(3, -t), x[:, :1], np.ones(3, bool))
+            if t % 7 == 6:
+                store.flush(RunState.capture(x, np.full(3, -t), x[:, :1], extra={"n": t + 1}))
+    else:
+        replace = os.replace
+        def dying(src, dst):
+            if str(src).endswith(".recovering"):
+                os.kill(os.getpid(), signal.SIGKILL)
+            replace(src, dst)
+        os.replace = dying
+        HDF5Store.open_append(path)
+    os.kill(os.getpid(), signal.SIGKILL)
+    """
+)
+
+
+def test_a_recovery_killed_before_its_last_rename_leaves_the_run_at_its_path(tmp_path) -> None:
+    """The recovery of a killed writer's file renamed the file away, then its fresh copy in:
+    killed between the two renames, no run was left at the path (a resume started afresh)."""
+    (tmp_path / "killed.py").write_text(KILLED)
+    path = tmp_path / "live.h5"
+    env = {**os.environ, "PYTHONPATH": str(REPO)}
+    for what in ("write", "recover"):
+        p = subprocess.run([sys.executable, str(tmp_path / "killed.py"), str(path), what], env=env,
+                           capture_output=True, text=True, timeout=120)
+        assert p.returncode == -signal.SIGKILL, (what, p.returncode, p.stderr[-2000:])
+    assert Path(str(path) + ".recovering").exists()  # killed with the copy made, not renamed
+    run = read_run(path)
+    assert run.n_saved == 21
+    check_consistent(run)
+    proc, path = start_writer(tmp_path, n_blocks=2, block=7, mode="append")
+    assert proc.wait() == 0
+    final = read_run(path)
+    assert final.n_saved == 35
+    check_consistent(final)
