@@ -172,7 +172,7 @@ class HDF5Store(Store):
         steps and state (checked against the commit's digest) are copied into a fresh file at
         ``path`` and the damaged file is kept as ``path + '.crashed'``. :class:`StoreBusy` is
         raised if the recorded writer is still alive on this host, or runs on another host
-        (unless ``force``).
+        (unless ``force``), or if another process holds the file open (HDF5 cannot lock it).
         """
         h5py = _h5py()
         path = os.fspath(path)
@@ -181,6 +181,10 @@ class HDF5Store(Store):
         except FileNotFoundError:
             raise
         except OSError as err:  # a killed writer, or one whose last write failed (disk full)
+            if "unable to lock file" in str(err):  # a SWMR reader holds a shared lock on it
+                raise StoreBusy(f"{path} is open in another process (a reader such as read_run, "
+                                "report or diagnose, or a writer starting); close it and resume "
+                                "again") from err
             if "already open for write" not in str(err) and "truncated file" not in str(err):
                 raise unreadable(path, err) from err
             w = _writer_record(path)  # {}: no writer recorded, none can be alive

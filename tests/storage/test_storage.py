@@ -418,3 +418,33 @@ def test_a_recovery_killed_before_its_last_rename_leaves_the_run_at_its_path(tmp
     final = read_run(path)
     assert final.n_saved == 35
     check_consistent(final)
+
+
+def test_a_resume_while_a_reader_holds_the_file_says_busy_not_damaged(tmp_path) -> None:
+    """A SWMR reader in another process holds a shared lock on the file; a resume's open for
+    writing then fails to lock it ("unable to lock file", errno 11), which was reported as a
+    damaged run. It is busy: StoreBusy, and the file is left exactly as it was."""
+    from pavement_mcmc.storage import StoreBusy
+
+    store = HDF5Store.create(tmp_path / "run.h5", PARAMS, BLOBS, N_CHAINS, META)
+    toy_run(store, initial_state(np.random.default_rng(5)), 20)
+    store.close()
+    path = store.path
+    before = Path(path).read_bytes()
+    env = {**os.environ, "PYTHONPATH": str(REPO)}
+    hold = "import sys, time\nfrom pavement_mcmc.storage import HDF5Store\n" \
+           "s = HDF5Store.open_readonly(sys.argv[1])\nprint('open', flush=True)\ntime.sleep(60)\n"
+    reader = subprocess.Popen([sys.executable, "-c", hold, path], env=env, stdout=subprocess.PIPE,
+                              text=True)
+    try:
+        assert reader.stdout.readline().strip() == "open"
+        with pytest.raises(StoreBusy, match="open in another process.*reader") as info:
+            HDF5Store.open_append(path)
+        assert "damaged" not in str(info.value)
+    finally:
+        reader.kill()
+        reader.wait()
+    assert Path(path).read_bytes() == before
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["run.h5"]  # no .crashed, no copy
+    HDF5Store.open_append(path).close()  # the reader gone, it resumes
+    assert read_run(path).n_saved == 20
