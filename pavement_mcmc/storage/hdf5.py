@@ -26,6 +26,7 @@ import time
 
 import numpy as np
 
+from . import rows as row_layout
 from .base import FORMAT_VERSION, Store, StoreBusy
 from .integrity import (
     N_DIGEST,
@@ -53,14 +54,12 @@ def _h5py():
     return h5py
 
 
-_ROWS = ("chain", "log_prob", "blobs", "accepted")
-
-
 class HDF5Store(Store):
     """A run in an HDF5 file written in SWMR mode; readable while it is being written.
 
     Layout: datasets ``chain``, ``log_prob``, ``blobs``, ``accepted`` (chunked, unlimited along
-    steps); ``state/position`` (2, n_chains, n_params), ``state/log_prob``, ``state/blobs`` (two
+    steps, whole chunks only) and ``tail/<name>`` (two slots of the rows after the last whole
+    chunk: :mod:`.rows`); ``state/position`` (2, n_chains, n_params), ``state/log_prob``, ``state/blobs`` (two
     slots), ``state/json0|1`` (uint8 JSON: rng state, extra, array index), ``state/arrays0|1``
     (float64, concatenated named arrays); ``commit`` int64 (n_saved, slot, generation and the
     digest); ``writer`` uint8 (JSON pid and host of the live writer). Metadata are root attributes
@@ -70,7 +69,7 @@ class HDF5Store(Store):
 
     def __init__(self, f, path: str, writable: bool) -> None:
         meta = _loads(f.attrs["meta_json"])
-        if meta.get("format_version") not in (1, FORMAT_VERSION):
+        if meta.get("format_version") not in (1, 2, FORMAT_VERSION):
             raise ValueError(f"{path}: unsupported run format {meta.get('format_version')!r}")
         super().__init__(
             json.loads(f.attrs["param_names"]),
@@ -85,6 +84,8 @@ class HDF5Store(Store):
         #: cache, and a failed flush there is ignored by h5py and crashes HDF5 at exit
         self._dsets: dict = {}
         self._failed = False
+        #: steps in a tail slot (format 3); None: every row in the row datasets (formats 1, 2)
+        self._chunk = row_layout.tail_length(f)
 
     def _where(self) -> str:
         return self.path
@@ -112,7 +113,6 @@ class HDF5Store(Store):
             )
         meta = cls._make_meta(param_names, blob_names, n_chains, meta)
         m, p, b = int(n_chains), len(param_names), len(blob_names)
-        rows = max(1, min(1024, 2**18 // (8 * m * max(p, b, 1))))
         try:
             f = h5py.File(path, "w", libver="latest")
         except OSError as err:  # no room for even the file's header
@@ -127,12 +127,7 @@ class HDF5Store(Store):
                     "format_version": FORMAT_VERSION,
                 }
             )
-            for name, tail, dt in zip(
-                _ROWS, [(m, p), (m,), (m, b), (m,)], ["f8", "f8", "f8", "bool"], strict=True
-            ):
-                chunks = (rows, *tail) if all(tail) else True  # zero-width blobs: auto chunks
-                f.create_dataset(name, shape=(0, *tail), maxshape=(None, *tail), dtype=dt,
-                                 chunks=chunks, fletcher32=True)
+            row_layout.create(f, m, p, b, tail=True)
             g = f.create_group("state")
             for name, tail in [("position", (m, p)), ("log_prob", (m,)), ("blobs", (m, b))]:
                 whole = all(tail)  # a zero-width dataset cannot be chunked
@@ -220,7 +215,7 @@ class HDF5Store(Store):
         rows = (data.chain, data.log_prob, data.blobs, data.accepted)
         try:
             if data.n_saved:
-                new._write_rows(0, *rows)
+                new._write_rows(0, 0, *rows)
             if data.state is not None:
                 new._write_state(0, data.state)
             new._commit(data.n_saved, 0 if data.state is not None else -1, gen,
@@ -330,8 +325,8 @@ class HDF5Store(Store):
                 first = "a block fails its fletcher32 checksum"
             raise OSError(f"{name}: {first}") from err
 
-    def _read_rows(self, stop: int) -> tuple[np.ndarray, ...]:
-        return tuple(self._get(name, slice(None, stop)) for name in _ROWS)
+    def _read_rows(self, stop: int, slot: int) -> tuple[np.ndarray, ...]:
+        return row_layout.read(self._get, stop, slot, self._chunk)
 
     def _read_state(self, slot: int) -> RunState:
         g = "state/"
@@ -355,13 +350,9 @@ class HDF5Store(Store):
         cut = truncation(self.path)
         return StoreDamaged(f"{self.path} is damaged: {cut + '; ' if cut else ''}{what}; it is not read")
 
-    def _write_rows(self, start, chain, log_prob, blobs, accepted) -> None:
-        stop = start + len(chain)
-        for name, arr in zip(_ROWS, [chain, log_prob, blobs, accepted], strict=True):
-            ds = self._ds(name)
-            ds.resize(stop, axis=0)
-            if arr.size:
-                ds[start:stop] = arr
+    def _write_rows(self, start, slot, chain, log_prob, blobs, accepted) -> None:
+        row_layout.write(self._ds, self._get, start, slot, (chain, log_prob, blobs, accepted),
+                         self._chunk)
 
     def _write_state(self, slot: int, state: RunState) -> None:
         g = {k: self._ds(f"state/{k}") for k in ("position", "log_prob", "blobs", f"json{slot}",
