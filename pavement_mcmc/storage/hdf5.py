@@ -86,6 +86,10 @@ class HDF5Store(Store):
         self._failed = False
         #: steps in a tail slot (format 3); None: every row in the row datasets (formats 1, 2)
         self._chunk = row_layout.tail_length(f)
+        #: the tail rows of the last commit (a writer keeps them to spare reading them back),
+        #: and those of the flush under way until its commit is written
+        self._tail: tuple | None = None
+        self._tail_next: tuple | None = None
 
     def _where(self) -> str:
         return self.path
@@ -351,8 +355,9 @@ class HDF5Store(Store):
         return StoreDamaged(f"{self.path} is damaged: {cut + '; ' if cut else ''}{what}; it is not read")
 
     def _write_rows(self, start, slot, chain, log_prob, blobs, accepted) -> None:
-        row_layout.write(self._ds, self._get, start, slot, (chain, log_prob, blobs, accepted),
-                         self._chunk)
+        self._tail_next = row_layout.write(self._ds, self._get, start, slot,
+                                           (chain, log_prob, blobs, accepted), self._chunk,
+                                           self._tail)
 
     def _write_state(self, slot: int, state: RunState) -> None:
         g = {k: self._ds(f"state/{k}") for k in ("position", "log_prob", "blobs", f"json{slot}",
@@ -379,6 +384,7 @@ class HDF5Store(Store):
         rec = [n_saved, slot, generation, *digest][: ds.shape[0]]  # format 1: no digest
         ds[...] = np.array(rec, dtype=np.int64)
         self._f.flush()
+        self._tail, self._tail_next = self._tail_next, None
 
 
 def _keep_aside(path: str, aside: str) -> None:

@@ -70,10 +70,13 @@ def read(get: Callable, stop: int, slot: int, chunk: int | None) -> tuple[np.nda
                  for name in ROWS)
 
 
-def write(ds: Callable, get: Callable, start: int, slot: int, cols, chunk: int | None) -> None:
+def write(ds: Callable, get: Callable, start: int, slot: int, cols, chunk: int | None,
+          tail: tuple | None = None) -> tuple | None:
     """Write rows ``cols`` (chain, log_prob, blobs, accepted) as steps ``[start, ...)`` for a
     commit to name ``slot``; the rows committed before sit in the other slot. ``ds(name)`` is
-    the writable dataset, ``get`` and ``chunk`` as in :func:`read`."""
+    the writable dataset, ``get`` and ``chunk`` as in :func:`read`; ``tail``: the committed
+    tail rows if the caller kept them (else they are read). Returns the tail rows written (for
+    the caller to keep once they are committed); None in formats 1 and 2."""
     if chunk is None:  # formats 1 and 2: append to the row datasets, drop what lies beyond
         stop = start + len(cols[0])
         for name, arr in zip(ROWS, cols, strict=True):
@@ -81,11 +84,13 @@ def write(ds: Callable, get: Callable, start: int, slot: int, cols, chunk: int |
             d.resize(stop, axis=0)
             if arr.size:
                 d[start:stop] = arr
-        return
+        return None
     n_whole = start // chunk * chunk
     if start > n_whole:  # the committed tail rows, in the slot the last commit names
-        cols = [np.concatenate([get(f"tail/{name}", (1 - slot, slice(None, start - n_whole))), c])
-                for name, c in zip(ROWS, cols, strict=True)]
+        if tail is None or len(tail[0]) != start - n_whole:
+            tail = tuple(get(f"tail/{name}", (1 - slot, slice(None, start - n_whole)))
+                         for name in ROWS)
+        cols = [np.concatenate([t, c]) for t, c in zip(tail, cols, strict=True)]
     n_new = len(cols[0]) // chunk * chunk  # rows of whole chunks to write now
     for name, arr in zip(ROWS, cols, strict=True):
         d = ds(name)
@@ -98,3 +103,4 @@ def write(ds: Callable, get: Callable, start: int, slot: int, cols, chunk: int |
             whole = np.zeros(t.shape[1:], dtype=t.dtype)  # one write of the whole slot's chunk
             whole[: len(arr) - n_new] = arr[n_new:]
             t[slot] = whole
+    return tuple(np.array(c[n_new:]) for c in cols)
