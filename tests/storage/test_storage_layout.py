@@ -242,3 +242,32 @@ def test_writers_killed_during_flushes_leave_every_committed_step(tmp_path) -> N
         np.testing.assert_array_equal(
             run.chain, t * 100.0 + np.arange(32)[None, :, None] * 10.0 + np.arange(128))
         assert run.state.extra["n"] == run.n_saved
+
+
+def test_a_killed_writer_of_a_format_2_run_is_recovered_into_format_3(tmp_path) -> None:
+    """A writer continuing a run of format 2 is killed: the resume copies the committed steps
+    into a fresh file, of format 3, and continues it as the straight run."""
+    init = initial_state(np.random.default_rng(8))
+    straight = HDF5Store.create(tmp_path / "a.h5", PARAMS, BLOBS, N_CHAINS, META)
+    toy_run(straight, init, 40)
+    straight.close()
+    path = tmp_path / "b.h5"
+    store = HDF5Store.create(path, PARAMS, BLOBS, N_CHAINS, META)
+    toy_run(store, init, 20)
+    store.close()
+    _as_format_2(path)
+    killed = ("import os, signal, sys\nfrom pavement_mcmc.storage import HDF5Store\n"
+              "from test_storage import toy_run\ns = HDF5Store.open_append(sys.argv[1])\n"
+              "toy_run(s, s.state, 10)\nos.kill(os.getpid(), signal.SIGKILL)\n")
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(REPO), str(Path(__file__).parent)])}
+    p = subprocess.run([sys.executable, "-c", killed, str(path)], env=env, timeout=120,
+                       capture_output=True, text=True)
+    assert p.returncode == -signal.SIGKILL, p.stderr[-2000:]
+    assert read_run(path).meta["format_version"] == 2 and read_run(path).n_saved == 30
+    store = HDF5Store.open_append(path)  # recovers: the writer was killed
+    toy_run(store, store.state, 10)
+    store.close()
+    a, b = read_run(tmp_path / "a.h5"), read_run(path)
+    assert b.meta["format_version"] == 3 and _same_rows(a, b) and b.n_saved == 40
+    assert a.state.rng_state == b.state.rng_state
+    assert Path(str(path) + ".crashed").exists()
