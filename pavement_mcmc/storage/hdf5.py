@@ -59,12 +59,12 @@ class HDF5Store(Store):
 
     Layout: datasets ``chain``, ``log_prob``, ``blobs``, ``accepted`` (chunked, unlimited along
     steps, whole chunks only) and ``tail/<name>`` (two slots of the rows after the last whole
-    chunk: :mod:`.rows`); ``state/position`` (2, n_chains, n_params), ``state/log_prob``, ``state/blobs`` (two
-    slots), ``state/json0|1`` (uint8 JSON: rng state, extra, array index), ``state/arrays0|1``
-    (float64, concatenated named arrays); ``commit`` int64 (n_saved, slot, generation and the
-    digest); ``writer`` uint8 (JSON pid and host of the live writer). Metadata are root attributes
-    (``meta_json`` holds them all). ``flush`` calls ``H5Fflush`` but not ``fsync``: a killed
-    process leaves a readable file, a power cut may not.
+    chunk: :mod:`.rows`); ``state/position`` (2, n_chains, n_params), ``state/log_prob``,
+    ``state/blobs`` (two slots), ``state/json0|1`` (uint8 JSON: rng state, extra, array index),
+    ``state/arrays0|1`` (float64, concatenated named arrays); ``commit`` int64 (n_saved, slot,
+    generation and the digest); ``writer`` uint8 (JSON pid and host of the live writer).
+    Metadata are root attributes (``meta_json`` holds them all). ``flush`` calls ``H5Fflush``
+    but not ``fsync``: a killed process leaves a readable file, a power cut may not.
     """
 
     def __init__(self, f, path: str, writable: bool) -> None:
@@ -131,7 +131,7 @@ class HDF5Store(Store):
                     "format_version": FORMAT_VERSION,
                 }
             )
-            row_layout.create(f, m, p, b, tail=True)
+            row_layout.create(f, m, p, b)
             g = f.create_group("state")
             for name, tail in [("position", (m, p)), ("log_prob", (m,)), ("blobs", (m, b))]:
                 whole = all(tail)  # a zero-width dataset cannot be chunked

@@ -33,17 +33,16 @@ def chunk_rows(n_chains: int, n_params: int, n_blobs: int) -> int:
     return max(1, min(1024, 2**18 // (8 * n_chains * max(n_params, n_blobs, 1))))
 
 
-def create(f, n_chains: int, n_params: int, n_blobs: int, tail: bool) -> None:
-    """The row datasets in a new file ``f`` (and, with ``tail``, format 3's two tail slots)."""
+def create(f, n_chains: int, n_params: int, n_blobs: int) -> None:
+    """The row datasets and their two tail slots in a new file ``f``."""
     m, c = n_chains, chunk_rows(n_chains, n_params, n_blobs)
     for name, shape, dt in zip(ROWS, _shapes(m, n_params, n_blobs), ["f8", "f8", "f8", "bool"],
                                strict=True):
         whole = all(shape)  # a zero-width dataset cannot be chunked (nor checksummed)
         f.create_dataset(name, shape=(0, *shape), maxshape=(None, *shape), dtype=dt,
                          chunks=(c, *shape) if whole else True, fletcher32=True)
-        if tail:
-            f.create_dataset(f"tail/{name}", shape=(2, c, *shape), dtype=dt, fletcher32=whole,
-                             chunks=(1, c, *shape) if whole else None)
+        f.create_dataset(f"tail/{name}", shape=(2, c, *shape), dtype=dt, fletcher32=whole,
+                         chunks=(1, c, *shape) if whole else None)
 
 
 def _shapes(m: int, p: int, b: int) -> list[tuple[int, ...]]:
