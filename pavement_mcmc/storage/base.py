@@ -4,9 +4,11 @@ Writing is buffered: :meth:`Store.append` fills memory, :meth:`Store.flush` writ
 the resume state, then commits. The commit is a single small write of ``(n_saved, slot,
 generation, digest)``: the state is double-buffered in two slots and the new one is written to
 the slot not referenced by the last commit, so a process killed mid-flush leaves the previous block
-and its state readable. Readers use ``n_saved``, never a dataset's shape, and check what they read
-against the commit's digest (:mod:`.integrity`): a damaged run is refused, never misread. A write
-that fails leaves the last commit as it was and raises :class:`~.integrity.StoreWriteFailed`.
+and its state readable. A backend may keep rows in the slots too: the HDF5 store keeps there the
+rows after its last whole chunk, so that a committed row is never rewritten (:mod:`.rows`).
+Readers use ``n_saved``, never a dataset's shape, and check what they read against the commit's
+digest (:mod:`.integrity`): a damaged run is refused, never misread. A write that fails leaves
+the last commit as it was and raises :class:`~.integrity.StoreWriteFailed`.
 """
 
 from __future__ import annotations
@@ -32,8 +34,9 @@ from .integrity import (
 )
 from .records import RunData, _dumps, _encode, config_diff
 
-#: 2: the commit record carries a digest (format 1, without it, is still read)
-FORMAT_VERSION = 2
+#: 2: the commit record carries a digest (format 1, without it, is still read); 3: a committed
+#: row is never rewritten (whole chunks written once, the rest in two tail slots: :mod:`.rows`)
+FORMAT_VERSION = 3
 
 
 class StoreMismatch(UserError, ValueError):
@@ -158,7 +161,9 @@ class Store(ABC):
         failed); the buffered rows are lost, the last commit stays readable."""
         self._check_writable()
         n_saved, slot, gen, *digest = self._read_commit()
-        cols = [np.stack(c) for c in zip(*self._buffer, strict=True)] if self._buffer else []
+        cols = [np.stack(c) for c in zip(*self._buffer, strict=True)] if self._buffer else \
+            [np.zeros((0, *s), dtype=d) for s, d in zip(self._row_shapes(), [float] * 3 + [bool],
+                                                         strict=True)]
         st = RunState(
             np.array(state.position, dtype=np.float64),
             np.array(state.log_prob, dtype=np.float64),
@@ -171,11 +176,9 @@ class Store(ABC):
             raise ValueError(f"state.position has shape {st.position.shape}")
         new_slot = 0 if slot != 0 else 1
         if len(digest) == N_DIGEST:  # a run of format 1 has none
-            rows = rows_digest(tuple(digest[:4]), cols) if cols else tuple(digest[:4])
-            digest = [*rows, state_digest(st)]
+            digest = [*rows_digest(tuple(digest[:4]), cols), state_digest(st)]
         try:
-            if cols:
-                self._write_rows(n_saved, *cols)
+            self._write_rows(n_saved, new_slot, *cols)  # no rows: the tail moves to new_slot
             self._write_state(new_slot, st)
             self._commit(n_saved + len(self._buffer), new_slot, gen + 1, tuple(digest))
         except Exception as err:
@@ -185,6 +188,11 @@ class Store(ABC):
         self._buffer.clear()
         self._pending_arrays.clear()
         self._committed_steps = _loop_steps(st)
+
+    def _row_shapes(self) -> list[tuple[int, ...]]:
+        """The shape of one step of chain, log_prob, blobs and accepted."""
+        m = self.n_chains
+        return [(m, self.n_params), (m,), (m, self.n_blobs), (m,)]
 
     def _write_failed(self, err: Exception, n_saved: int) -> Exception:
         """The error to raise when a backend write failed (the backend makes it a clear one);
@@ -221,12 +229,13 @@ class Store(ABC):
         for _ in range(200):
             n_saved, slot, gen, *digest = self._read_commit()
             try:
-                rows = self._read_rows(n_saved) if with_rows else ()
+                rows = self._read_rows(n_saved, slot) if with_rows else ()
                 state = None if slot < 0 else self._read_state(slot)
             except Exception as err:
-                # A writer two commits ahead may be rewriting our slot, or the chunk holding
-                # the last committed rows and its next ones (a checksum read mid-write): retry;
-                # failing again and again at one commit, the store is really broken.
+                # A writer two commits ahead may be rewriting our slot (state and tail rows), or
+                # (formats 1, 2) the chunk holding the last committed rows and its next ones (a
+                # checksum read mid-write): retry; failing again and again at one commit, the
+                # store is really broken.
                 failures = failures + 1 if self._read_commit()[2] == gen else 0
                 if failures >= 3 or (failures and self.writable):
                     raise self._damaged(f"its {n_saved} committed steps cannot be read "
@@ -234,7 +243,7 @@ class Store(ABC):
                 time.sleep(0.01)
                 continue
             # The writer only rewrites a slot after a newer commit: unchanged generation => the
-            # state we read is whole. Rows below n_saved are never rewritten.
+            # state and tail rows we read are whole. Whole chunks of rows are never rewritten.
             if self._read_commit()[2] == gen:
                 if len(digest) == N_DIGEST:
                     self._verify(tuple(digest), rows, state, n_saved)
@@ -289,15 +298,16 @@ class Store(ABC):
         :data:`~.integrity.N_DIGEST` CRCs (empty in a run of format 1)."""
 
     @abstractmethod
-    def _read_rows(self, stop: int) -> tuple[np.ndarray, ...]:
-        """chain, log_prob, blobs, accepted for steps [0, stop)."""
+    def _read_rows(self, stop: int, slot: int) -> tuple[np.ndarray, ...]:
+        """chain, log_prob, blobs, accepted for steps [0, stop) of the commit naming ``slot``."""
 
     @abstractmethod
     def _read_state(self, slot: int) -> RunState: ...
 
     @abstractmethod
-    def _write_rows(self, start: int, chain, log_prob, blobs, accepted) -> None:
-        """Write rows at [start, start + len); drop anything stored beyond."""
+    def _write_rows(self, start: int, slot: int, chain, log_prob, blobs, accepted) -> None:
+        """Write rows at [start, start + len) (perhaps none) for the next commit, which names
+        ``slot`` (the last commit names the other one, or -1); drop anything stored beyond."""
 
     @abstractmethod
     def _write_state(self, slot: int, state: RunState) -> None: ...

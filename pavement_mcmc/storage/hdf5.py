@@ -20,11 +20,13 @@ from __future__ import annotations
 
 import json
 import os
+import shutil
 import socket
 import time
 
 import numpy as np
 
+from . import rows as row_layout
 from .base import FORMAT_VERSION, Store, StoreBusy
 from .integrity import (
     N_DIGEST,
@@ -52,24 +54,22 @@ def _h5py():
     return h5py
 
 
-_ROWS = ("chain", "log_prob", "blobs", "accepted")
-
-
 class HDF5Store(Store):
     """A run in an HDF5 file written in SWMR mode; readable while it is being written.
 
     Layout: datasets ``chain``, ``log_prob``, ``blobs``, ``accepted`` (chunked, unlimited along
-    steps); ``state/position`` (2, n_chains, n_params), ``state/log_prob``, ``state/blobs`` (two
-    slots), ``state/json0|1`` (uint8 JSON: rng state, extra, array index), ``state/arrays0|1``
-    (float64, concatenated named arrays); ``commit`` int64 (n_saved, slot, generation and the
-    digest); ``writer`` uint8 (JSON pid and host of the live writer). Metadata are root attributes
-    (``meta_json`` holds them all). ``flush`` calls ``H5Fflush`` but not ``fsync``: a killed
-    process leaves a readable file, a power cut may not.
+    steps, whole chunks only) and ``tail/<name>`` (two slots of the rows after the last whole
+    chunk: :mod:`.rows`); ``state/position`` (2, n_chains, n_params), ``state/log_prob``,
+    ``state/blobs`` (two slots), ``state/json0|1`` (uint8 JSON: rng state, extra, array index),
+    ``state/arrays0|1`` (float64, concatenated named arrays); ``commit`` int64 (n_saved, slot,
+    generation and the digest); ``writer`` uint8 (JSON pid and host of the live writer).
+    Metadata are root attributes (``meta_json`` holds them all). ``flush`` calls ``H5Fflush``
+    but not ``fsync``: a killed process leaves a readable file, a power cut may not.
     """
 
     def __init__(self, f, path: str, writable: bool) -> None:
         meta = _loads(f.attrs["meta_json"])
-        if meta.get("format_version") not in (1, FORMAT_VERSION):
+        if meta.get("format_version") not in (1, 2, FORMAT_VERSION):
             raise ValueError(f"{path}: unsupported run format {meta.get('format_version')!r}")
         super().__init__(
             json.loads(f.attrs["param_names"]),
@@ -84,6 +84,12 @@ class HDF5Store(Store):
         #: cache, and a failed flush there is ignored by h5py and crashes HDF5 at exit
         self._dsets: dict = {}
         self._failed = False
+        #: steps in a tail slot (format 3); None: every row in the row datasets (formats 1, 2)
+        self._chunk = row_layout.tail_length(f)
+        #: the tail rows of the last commit (a writer keeps them to spare reading them back),
+        #: and those of the flush under way until its commit is written
+        self._tail: tuple | None = None
+        self._tail_next: tuple | None = None
 
     def _where(self) -> str:
         return self.path
@@ -111,7 +117,6 @@ class HDF5Store(Store):
             )
         meta = cls._make_meta(param_names, blob_names, n_chains, meta)
         m, p, b = int(n_chains), len(param_names), len(blob_names)
-        rows = max(1, min(1024, 2**18 // (8 * m * max(p, b, 1))))
         try:
             f = h5py.File(path, "w", libver="latest")
         except OSError as err:  # no room for even the file's header
@@ -126,12 +131,7 @@ class HDF5Store(Store):
                     "format_version": FORMAT_VERSION,
                 }
             )
-            for name, tail, dt in zip(
-                _ROWS, [(m, p), (m,), (m, b), (m,)], ["f8", "f8", "f8", "bool"], strict=True
-            ):
-                chunks = (rows, *tail) if all(tail) else True  # zero-width blobs: auto chunks
-                f.create_dataset(name, shape=(0, *tail), maxshape=(None, *tail), dtype=dt,
-                                 chunks=chunks, fletcher32=True)
+            row_layout.create(f, m, p, b)
             g = f.create_group("state")
             for name, tail in [("position", (m, p)), ("log_prob", (m,)), ("blobs", (m, b))]:
                 whole = all(tail)  # a zero-width dataset cannot be chunked
@@ -171,7 +171,7 @@ class HDF5Store(Store):
         steps and state (checked against the commit's digest) are copied into a fresh file at
         ``path`` and the damaged file is kept as ``path + '.crashed'``. :class:`StoreBusy` is
         raised if the recorded writer is still alive on this host, or runs on another host
-        (unless ``force``).
+        (unless ``force``), or if another process holds the file open (HDF5 cannot lock it).
         """
         h5py = _h5py()
         path = os.fspath(path)
@@ -180,6 +180,10 @@ class HDF5Store(Store):
         except FileNotFoundError:
             raise
         except OSError as err:  # a killed writer, or one whose last write failed (disk full)
+            if "unable to lock file" in str(err):  # a SWMR reader holds a shared lock on it
+                raise StoreBusy(f"{path} is open in another process (a reader such as read_run, "
+                                "report or diagnose, or a writer starting); close it and resume "
+                                "again") from err
             if "already open for write" not in str(err) and "truncated file" not in str(err):
                 raise unreadable(path, err) from err
             w = _writer_record(path)  # {}: no writer recorded, none can be alive
@@ -215,7 +219,7 @@ class HDF5Store(Store):
         rows = (data.chain, data.log_prob, data.blobs, data.accepted)
         try:
             if data.n_saved:
-                new._write_rows(0, *rows)
+                new._write_rows(0, 0, *rows)
             if data.state is not None:
                 new._write_state(0, data.state)
             new._commit(data.n_saved, 0 if data.state is not None else -1, gen,
@@ -226,8 +230,8 @@ class HDF5Store(Store):
             os.unlink(tmp)
             raise failed from err
         new.close()
-        os.replace(path, path + ".crashed")
-        os.replace(tmp, path)
+        _keep_aside(path, path + ".crashed")
+        os.replace(tmp, path)  # one rename: killed at any moment, a run is at ``path``
 
     @classmethod
     def open_readonly(cls, path: str | os.PathLike) -> HDF5Store:
@@ -325,8 +329,8 @@ class HDF5Store(Store):
                 first = "a block fails its fletcher32 checksum"
             raise OSError(f"{name}: {first}") from err
 
-    def _read_rows(self, stop: int) -> tuple[np.ndarray, ...]:
-        return tuple(self._get(name, slice(None, stop)) for name in _ROWS)
+    def _read_rows(self, stop: int, slot: int) -> tuple[np.ndarray, ...]:
+        return row_layout.read(self._get, stop, slot, self._chunk)
 
     def _read_state(self, slot: int) -> RunState:
         g = "state/"
@@ -350,13 +354,10 @@ class HDF5Store(Store):
         cut = truncation(self.path)
         return StoreDamaged(f"{self.path} is damaged: {cut + '; ' if cut else ''}{what}; it is not read")
 
-    def _write_rows(self, start, chain, log_prob, blobs, accepted) -> None:
-        stop = start + len(chain)
-        for name, arr in zip(_ROWS, [chain, log_prob, blobs, accepted], strict=True):
-            ds = self._ds(name)
-            ds.resize(stop, axis=0)
-            if arr.size:
-                ds[start:stop] = arr
+    def _write_rows(self, start, slot, chain, log_prob, blobs, accepted) -> None:
+        self._tail_next = row_layout.write(self._ds, self._get, start, slot,
+                                           (chain, log_prob, blobs, accepted), self._chunk,
+                                           self._tail)
 
     def _write_state(self, slot: int, state: RunState) -> None:
         g = {k: self._ds(f"state/{k}") for k in ("position", "log_prob", "blobs", f"json{slot}",
@@ -383,6 +384,20 @@ class HDF5Store(Store):
         rec = [n_saved, slot, generation, *digest][: ds.shape[0]]  # format 1: no digest
         ds[...] = np.array(rec, dtype=np.int64)
         self._f.flush()
+        self._tail, self._tail_next = self._tail_next, None
+
+
+def _keep_aside(path: str, aside: str) -> None:
+    """Make ``aside`` a second name of ``path`` (a copy where hard links are not supported),
+    replacing an older ``aside``; ``path`` itself is left in place."""
+    tmp = aside + ".new"
+    if os.path.lexists(tmp):
+        os.unlink(tmp)
+    try:
+        os.link(path, tmp)
+    except OSError:  # no hard links on this file system (or across a mount)
+        shutil.copyfile(path, tmp)
+    os.replace(tmp, aside)
 
 
 def read_run(path: str | os.PathLike) -> RunData:

@@ -57,7 +57,7 @@ class MemoryStore(Store):
     def _read_commit(self) -> tuple[int, ...]:
         return self._run.commit
 
-    def _read_rows(self, stop: int) -> tuple[np.ndarray, ...]:
+    def _read_rows(self, stop: int, slot: int) -> tuple[np.ndarray, ...]:
         return tuple(c[:stop].copy() for c in self._run.cols)
 
     def _read_state(self, slot: int) -> RunState:
@@ -66,7 +66,7 @@ class MemoryStore(Store):
         return RunState(*(r.copy() for r in rows), d["rng_state"], d["extra"],
                         {k: v.copy() for k, v in arrays.items()})
 
-    def _write_rows(self, start, chain, log_prob, blobs, accepted) -> None:
+    def _write_rows(self, start, slot, chain, log_prob, blobs, accepted) -> None:
         # rows past the commit are scratch; capacity doubles so a long run is not copied per block
         run = self._run
         stop = start + np.shape(chain)[0]

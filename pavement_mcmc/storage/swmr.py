@@ -9,7 +9,11 @@ attempts are set to :data:`READ_ATTEMPTS` here, about 0.3 s of waiting in all; a
 is retried above that by the store (:meth:`.base.Store._consistent_read`).
 
 h5py does not wrap ``H5Pset_metadata_read_attempts``; it is called through ``ctypes`` in the
-HDF5 library h5py has loaded. Where that library cannot be found, HDF5's default stays.
+HDF5 library h5py itself uses: looked up through the handle of h5py's extension module
+``h5py.h5p``, whose dependencies are searched (h5py's libhdf5, bundled or the system's), never
+through whichever libhdf5 a process holds first (another wheel's, loaded by ``ctypes``, would be
+called with h5py's property list and refuse it). A library whose version is not the one h5py
+reports is not used; HDF5's default then stays.
 """
 
 from __future__ import annotations
@@ -20,26 +24,31 @@ import os
 #: metadata read attempts of a SWMR reader (HDF5's default is 100)
 READ_ATTEMPTS = 28
 
-_LIB: list = []  # the HDF5 library h5py loaded (or None), looked up once
+_LIB: list = []  # the HDF5 library h5py uses (or None), looked up once
 
 
 def _hdf5_library():
-    """The shared HDF5 library in this process's memory map (Linux), or None."""
+    """h5py's HDF5 library as a ``ctypes.CDLL`` (None where it cannot be reached)."""
     if not _LIB:
+        import h5py
+
         lib = None
-        try:
-            with open("/proc/self/maps", encoding="ascii", errors="replace") as fh:
-                paths = {ln.split()[-1] for ln in fh if "libhdf5" in ln and "hl" not in
-                         os.path.basename(ln.split()[-1])}
-            for path in sorted(paths):
-                cand = ctypes.CDLL(path)  # the loaded library: dlopen returns its handle
-                if hasattr(cand, "H5Pset_metadata_read_attempts"):
-                    lib = cand
-                    break
-        except OSError:
+        try:  # dlopen of a loaded module returns its handle; dlsym searches its dependencies
+            cand = ctypes.CDLL(h5py.h5p.__file__)
+            if hasattr(cand, "H5Pset_metadata_read_attempts") and _version(cand) == \
+                    tuple(h5py.version.hdf5_version_tuple[:3]):
+                lib = cand
+        except (AttributeError, OSError):
             lib = None
         _LIB.append(lib)
     return _LIB[0]
+
+
+def _version(lib) -> tuple[int, int, int]:
+    """The version of the HDF5 library ``lib`` (``H5get_libversion``)."""
+    v = [ctypes.c_uint(0) for _ in range(3)]
+    lib.H5get_libversion(*(ctypes.byref(x) for x in v))
+    return tuple(x.value for x in v)
 
 
 def bound_read_attempts(fapl, attempts: int = READ_ATTEMPTS) -> bool:

@@ -159,11 +159,13 @@ def test_partial_block_without_commit_leaves_last_good_block(backend, tmp_path, 
             store.flush(RunState.capture(x, log_prob(x), blobs_of(x), np.random.default_rng(9)))
     with pytest.warns(RuntimeWarning, match="unflushed"):
         store.close()
-    if isinstance(store, HDF5Store):  # the partial rows really reached the file
-        import h5py
+    if isinstance(store, HDF5Store):  # the partial rows really reached the file: the tail
+        import h5py  # slot the last commit does not name
 
         with h5py.File(store.path, "r") as f:
-            assert f["chain"].shape[0] == 25
+            slot = int(f["commit"][1])
+            assert slot in (0, 1) and f["chain"].shape[0] == 0
+            np.testing.assert_array_equal(f["tail/chain"][1 - slot, :25], np.r_[good.chain, [x] * 5])
 
     after = backend.read(store)
     assert after.n_saved == 20
@@ -369,3 +371,82 @@ def test_a_zombie_writer_is_not_alive() -> None:
         live.kill()
         live.wait()
         dead.wait()
+
+
+#: argv[2] == "write": write 3 blocks of 7 rows, then die by SIGKILL (the file is left open);
+#: "recover": reopen it, dying by SIGKILL when the recovery renames its fresh copy into place
+KILLED = textwrap.dedent(
+    """
+    import os, signal, sys
+    import numpy as np
+    from pavement_mcmc.storage import HDF5Store, RunState
+    path, what = sys.argv[1], sys.argv[2]
+    if what == "write":
+        store = HDF5Store.create(path, ["a", "b"], ["r"], 3, {})
+        for t in range(21):
+            x = t * 100.0 + np.arange(3)[:, None] * 10.0 + np.arange(2)
+            store.append(x, np.full(3, -t), x[:, :1], np.ones(3, bool))
+            if t % 7 == 6:
+                store.flush(RunState.capture(x, np.full(3, -t), x[:, :1], extra={"n": t + 1}))
+    else:
+        replace = os.replace
+        def dying(src, dst):
+            if str(src).endswith(".recovering"):
+                os.kill(os.getpid(), signal.SIGKILL)
+            replace(src, dst)
+        os.replace = dying
+        HDF5Store.open_append(path)
+    os.kill(os.getpid(), signal.SIGKILL)
+    """
+)
+
+
+def test_a_recovery_killed_before_its_last_rename_leaves_the_run_at_its_path(tmp_path) -> None:
+    """The recovery of a killed writer's file renamed the file away, then its fresh copy in:
+    killed between the two renames, no run was left at the path (a resume started afresh)."""
+    (tmp_path / "killed.py").write_text(KILLED)
+    path = tmp_path / "live.h5"
+    env = {**os.environ, "PYTHONPATH": str(REPO)}
+    for what in ("write", "recover"):
+        p = subprocess.run([sys.executable, str(tmp_path / "killed.py"), str(path), what], env=env,
+                           capture_output=True, text=True, timeout=120)
+        assert p.returncode == -signal.SIGKILL, (what, p.returncode, p.stderr[-2000:])
+    assert Path(str(path) + ".recovering").exists()  # killed with the copy made, not renamed
+    run = read_run(path)
+    assert run.n_saved == 21
+    check_consistent(run)
+    proc, path = start_writer(tmp_path, n_blocks=2, block=7, mode="append")
+    assert proc.wait() == 0
+    final = read_run(path)
+    assert final.n_saved == 35
+    check_consistent(final)
+
+
+def test_a_resume_while_a_reader_holds_the_file_says_busy_not_damaged(tmp_path) -> None:
+    """A SWMR reader in another process holds a shared lock on the file; a resume's open for
+    writing then fails to lock it ("unable to lock file", errno 11), which was reported as a
+    damaged run. It is busy: StoreBusy, and the file is left exactly as it was."""
+    from pavement_mcmc.storage import StoreBusy
+
+    store = HDF5Store.create(tmp_path / "run.h5", PARAMS, BLOBS, N_CHAINS, META)
+    toy_run(store, initial_state(np.random.default_rng(5)), 20)
+    store.close()
+    path = store.path
+    before = Path(path).read_bytes()
+    env = {**os.environ, "PYTHONPATH": str(REPO)}
+    hold = "import sys, time\nfrom pavement_mcmc.storage import HDF5Store\n" \
+           "s = HDF5Store.open_readonly(sys.argv[1])\nprint('open', flush=True)\ntime.sleep(60)\n"
+    reader = subprocess.Popen([sys.executable, "-c", hold, path], env=env, stdout=subprocess.PIPE,
+                              text=True)
+    try:
+        assert reader.stdout.readline().strip() == "open"
+        with pytest.raises(StoreBusy, match="open in another process.*reader") as info:
+            HDF5Store.open_append(path)
+        assert "damaged" not in str(info.value)
+    finally:
+        reader.kill()
+        reader.wait()
+    assert Path(path).read_bytes() == before
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["run.h5"]  # no .crashed, no copy
+    HDF5Store.open_append(path).close()  # the reader gone, it resumes
+    assert read_run(path).n_saved == 20

@@ -272,3 +272,95 @@ def test_a_damaged_object_header_is_refused_in_seconds_not_waited_on(toy, tmp_pa
         assert seconds < 5, (name, seconds)
     refused = {name for name, (what, _) in out.items() if what.startswith("refused")}
     assert {"chain", "log_prob", "blobs", "accepted", "commit"} <= refused, out
+
+
+#: load a second copy of h5py's HDF5 (another wheel's, or the system's, would do the same), then
+#: open a run for reading and print the metadata read attempts in force on the open file
+TWO_HDF5 = textwrap.dedent(
+    """
+    import ctypes, glob, json, os, shutil, sys
+    import h5py
+    libs = os.path.join(os.path.dirname(h5py.__file__), os.pardir, "h5py.libs")
+    ours = [p for p in glob.glob(libs + "/libhdf5-*") if "_hl" not in os.path.basename(p)]
+    if not ours:
+        print(json.dumps({"skip": "h5py has no bundled libhdf5 here"}))
+        sys.exit(0)
+    shutil.copy(ours[0], sys.argv[2])  # another path, another copy of the library in memory
+    other = ctypes.CDLL(sys.argv[2])
+    from pavement_mcmc.storage.swmr import READ_ATTEMPTS, open_swmr_reader
+    with open_swmr_reader(sys.argv[1]) as f:
+        fapl = f.id.get_access_plist()
+        n = ctypes.c_uint(0)
+        ok = ctypes.CDLL(ours[0]).H5Pget_metadata_read_attempts(ctypes.c_int64(fapl.id),
+                                                                ctypes.byref(n))
+    print(json.dumps({"ok": ok, "attempts": n.value, "expected": READ_ATTEMPTS}))
+    """
+)
+
+
+def h5py_file() -> str:
+    import h5py
+
+    return h5py.__file__
+
+
+def test_the_read_attempts_are_set_in_h5pys_hdf5_with_another_hdf5_loaded(toy, tmp_path):
+    """swmr.py took the first libhdf5 in the memory map: with another one loaded (here a copy of
+    h5py's own, at a path sorting first), it called that library with h5py's property list,
+    which failed, and the reader kept HDF5's 100 attempts (hours on a damaged header)."""
+    assert str(tmp_path) < str(Path(h5py_file()).parent)  # the copy's path is met first
+    (tmp_path / "two.py").write_text(TWO_HDF5)
+    p = _run([str(tmp_path / "two.py"), str(toy), str(tmp_path / "libhdf5-other.so")], None, tmp_path)
+    assert p.returncode == 0, p.stderr[-2000:]
+    out = json.loads(p.stdout)
+    if "skip" in out:
+        pytest.skip(out["skip"])
+    assert out["ok"] >= 0 and out["attempts"] == out["expected"] == 28, (out, p.stderr[-2000:])
+
+
+#: cut a run at each given offset and read it, timing each read
+CUT = textwrap.dedent(
+    """
+    import json, os, shutil, sys, time
+    from pavement_mcmc.storage import StoreDamaged, read_run
+    src, dst, offsets = sys.argv[1], sys.argv[2], json.loads(sys.argv[3])
+    out = []
+    for off in offsets:
+        shutil.copy(src, dst)
+        os.truncate(dst, off)
+        t = time.perf_counter()
+        try:
+            read_run(dst)
+            what = "read"
+        except StoreDamaged as err:
+            what = "refused: " + str(err)
+        out.append([off, what, time.perf_counter() - t])
+        print(json.dumps(out[-1]), flush=True)
+    """
+)
+
+
+def test_a_truncated_run_of_format_3_is_refused_in_seconds(toy, tmp_path):
+    """A truncated file of format 3 once kept a SWMR reader waiting (HDF5's 100 metadata read
+    attempts, bounded in storage/swmr.py): cuts at 12 sizes and inside the chunks of each
+    tail slot and row dataset, read in a subprocess (killed after 5 minutes): each refused in
+    under 5 s."""
+    import h5py
+
+    size = os.path.getsize(toy)
+    offsets = {int(size * f) for f in np.linspace(0.04, 0.98, 12)}
+    with h5py.File(toy, "r") as f:
+        assert f.attrs["format_version"] == 3 and f["chain"].shape[0] > 0
+        for name in ("chain", "tail/chain", "tail/log_prob", "state/json0"):
+            for i in range(f[name].id.get_num_chunks()):
+                info = f[name].id.get_chunk_info(i)
+                offsets.add(int(info.byte_offset + info.size // 2))
+    (tmp_path / "cut.py").write_text(CUT)
+    p = _run([str(tmp_path / "cut.py"), str(toy), str(tmp_path / "cut.h5"),
+              json.dumps(sorted(offsets))], None, tmp_path)
+    assert p.returncode == 0, p.stderr[-2000:]
+    out = [json.loads(ln) for ln in p.stdout.splitlines()]
+    assert len(out) == len(offsets) >= 16
+    for off, what, seconds in out:
+        assert what.startswith("refused") and "truncated" in what, (off, what)
+        assert seconds < 5, (off, seconds)
