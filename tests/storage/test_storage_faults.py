@@ -304,13 +304,37 @@ def h5py_file() -> str:
     return h5py.__file__
 
 
-def test_the_read_attempts_are_set_in_h5pys_hdf5_with_another_hdf5_loaded(toy, tmp_path):
+@pytest.fixture
+def first_sorting_dir(tmp_path):
+    """A directory whose path sorts before h5py's own: the pytest temporary directory when it
+    does (/tmp against a venv under /work), else one made beside h5py in site-packages (a CI
+    checkout under /check sorts before /tmp), removed afterwards."""
+    h5py_dir = Path(h5py_file()).parent
+    if str(tmp_path) < str(h5py_dir):
+        yield tmp_path
+        return
+    import tempfile
+
+    try:
+        d = Path(tempfile.mkdtemp(prefix="!pm-", dir=h5py_dir.parent))
+    except OSError as err:
+        pytest.skip(f"no directory sorting before {h5py_dir} can be written: {err}")
+    assert str(d) < str(h5py_dir)
+    try:
+        yield d
+    finally:
+        shutil.rmtree(d, ignore_errors=True)
+
+
+def test_the_read_attempts_are_set_in_h5pys_hdf5_with_another_hdf5_loaded(toy, tmp_path,
+                                                                          first_sorting_dir):
     """swmr.py took the first libhdf5 in the memory map: with another one loaded (here a copy of
     h5py's own, at a path sorting first), it called that library with h5py's property list,
     which failed, and the reader kept HDF5's 100 attempts (hours on a damaged header)."""
-    assert str(tmp_path) < str(Path(h5py_file()).parent)  # the copy's path is met first
+    copy = first_sorting_dir / "libhdf5-other.so"
+    assert str(copy) < str(Path(h5py_file()).parent)  # the copy's path is met first
     (tmp_path / "two.py").write_text(TWO_HDF5)
-    p = _run([str(tmp_path / "two.py"), str(toy), str(tmp_path / "libhdf5-other.so")], None, tmp_path)
+    p = _run([str(tmp_path / "two.py"), str(toy), str(copy)], None, tmp_path)
     assert p.returncode == 0, p.stderr[-2000:]
     out = json.loads(p.stdout)
     if "skip" in out:
