@@ -21,10 +21,9 @@ Priestley-Taylor coefficient keeps the last day's value.
 log(MSE_base / MSE_candidate), claimed above 15) of each energy-balance model of :data:`GAIN`
 against the base model of the window, with the in-sample RMSE.
 
-``rolling``: the base and the energy-balance case fitted on 72 h windows a day apart over the
-record (grass: 15 windows from 2020-03-29 00Z; desert: 27 from 2025-07-01 07Z), each
-forecasting the next day as above; per day the two forecast RMSEs and F on that day's errors
-(n/phi from the base errors' lag-1), and F summed over the days.
+``rolling``: ``pavement-mcmc rolling`` (criticism/rolling.py) of the base and the energy-balance
+case over the record (grass: 15 windows from 2020-03-29 00Z; desert: 27 from 2025-07-01 07Z):
+72 h fitted, the next day forecast from the forcing (a per-interval h by its clock-hour mean).
 
 ``daily``: the energy-balance case of a record (:data:`DAILY`) fitted by MAP on every daily
 window (the 18 grass days from 2020-03-29 00Z; the 30 July desert days, 2025-07-01 07Z ...
@@ -244,27 +243,12 @@ ROLLING = {"grass": ("grass.toml", "grass_energy.toml", 0.0, 15),
 
 def rolling(record: str) -> None:
     """Next-day forecasts of the base and the energy-balance case from 72 h windows a day
-    apart (module doc): per day the two forecast RMSEs and F on that day's errors, then F
-    pooled over the days (the sum: the days' held-out data do not overlap)."""
-    from pavement_mcmc.criticism.forecast import gain as forecast_gain
-    from pavement_mcmc.criticism.residuals import pooled_lag1
+    apart, as ``pavement-mcmc rolling`` makes them (criticism/rolling.py)."""
+    from pavement_mcmc.criticism.rolling import rolling_forecast
 
     base_name, eb_name, h0, n = ROLLING[record]
-    total = 0.0
-    for d in range(n):
-        a = h0 + DAY_H * d
-        window = {"data": {"window_hours": [a, a + 3 * DAY_H]}}
-        rb = run(REPO / "runs" / base_name, None, window)
-        re_ = run(REPO / "runs" / eb_name, None, window)
-        rho = float(pooled_lag1(rb["forecast_residuals"]))
-        m = rb["forecast_residuals"].size
-        f = forecast_gain(m, rho, rb["forecast_rmse"], re_["forecast_rmse"])
-        total += f
-        print(f"{record} window from {a:.0f} h: forecast base {rb['forecast_rmse']:.3f} C, "
-              f"energy balance {re_['forecast_rmse']:.3f} C; in-sample {rb['rmse']:.3f} / "
-              f"{re_['rmse']:.3f} C; lag-1 {rho:.2f}, n/phi {m * (1 - rho) / (1 + rho):.1f}, "
-              f"F {f:+.1f} (pooled {total:+.1f}); EB kappa {re_['kappa']:.3g}, C "
-              f"{re_['C'] / 1e6:.3g} MJ", flush=True)
+    res = rolling_forecast(REPO / "runs" / base_name, REPO / "runs" / eb_name, start_h=h0, days=n)
+    print(res.text(), flush=True)
 
 
 def spread(rows: list[dict], key: str) -> dict:

@@ -1,73 +1,61 @@
-"""How large a summed next-day forecast gain arises by chance: the rolling-origin rule's null.
+"""The null and the power of ``pavement-mcmc rolling`` (criticism/rolling.py): how often is a
+law named by chance?
 
-``benchmarks/energy_records.py rolling grass`` fits the base case (one h per 30 min) and the
-energy-balance case on 72 h windows a day apart and sums the forecast gains F of the days after
-them (+36.8 over 15 days on the grass record). The criticism's margin 15 is calibrated for one
-held-out period; what does a sum over 15 days reach when the law is *not* the truth? Here, on
-forecast twins of :func:`pavement_mcmc.synthetic.corpus.forecast_twins` stretched to 18 days
-(their h(t) a diurnal shape that changes from day to day, drawn from knots: no law of wind or
-radiation makes it), the same procedure as ``rolling``: 15 windows of 72 h a day apart, each
-model's MAP (``criticism.fitting.refit``), the next day forecast from the forcing (the base:
-the last fitted day's h at the same clock time), F per day on that day's errors (n/phi from the
-base errors' lag-1). The candidate is ``energy_balance_window`` (H = (eb_h0 + eb_h1 u)
-(T_s - T_air), LE = alpha s/(s+gamma) max(R_n, 0)): a law in place of the free h.
+``pavement-mcmc rolling BASE LAW`` fits both cases by MAP on 72 h windows a day apart, forecasts
+the day after each from the forcing alone (a per-interval h by its clock-hour mean) and names
+the law when it forecasts better on more days than a fair coin gives (one-sided sign test,
+p <= 0.05) with a positive summed gain F. Here the same function on forecast twins of
+:func:`pavement_mcmc.synthetic.corpus.forecast_twins` stretched to 18 days (15 windows, as the
+grass record), the law ``energy_balance_window`` (H = (eb_h0 + eb_h1 u)(T_s - T_air),
+LE = alpha s/(s+gamma) max(R_n, 0)) against the free h of the twin's Case C form:
 
-- clean twins: the null of the sum (a false claim would be the law named on them);
+- clean twins, whose h(t) is a diurnal shape drawn day by day from knots that no law of wind or
+  radiation makes: the false-naming rate;
 - wind-driven twins (``wind_convection``: h = a + b u, which the law contains): the power.
 
-    PYTHONPATH=. NUMBA_NUM_THREADS=1 python benchmarks/rolling_null.py --out rolling_null.jsonl \\
-        [--clean 16] [--wind 5]
+    PYTHONPATH=. NUMBA_NUM_THREADS=1 OMP_NUM_THREADS=1 python benchmarks/rolling_null.py \
+        --out rolling_null.jsonl [--clean 40] [--wind 10] [--clean-from 600] [--wind-from 700]
     PYTHONPATH=. python benchmarks/rolling_null.py --report rolling_null.jsonl
 
-One JSON line per twin (resumed: twins in ``--out`` are skipped).
+One JSON line per twin (resumed: twins in ``--out`` are skipped). Without OMP_NUM_THREADS=1
+the BLAS threads of the MAP refits oversubscribe the cores and a twin takes minutes.
 """
 
 from __future__ import annotations
 
 import argparse
 import json
-import sys
 import tempfile
 import time
 from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-from energy_records import DAY_H, run  # noqa: E402
-
-from pavement_mcmc.criticism.forecast import gain  # noqa: E402
-from pavement_mcmc.criticism.residuals import pooled_lag1  # noqa: E402
-from pavement_mcmc.synthetic.corpus import forecast_twins, write_twin  # noqa: E402
+from pavement_mcmc.criticism.calibration import binomial_interval
+from pavement_mcmc.criticism.rolling import LEVEL, rolling_forecast
+from pavement_mcmc.synthetic.corpus import forecast_twins, write_twin
 
 #: days of each twin and 72 h windows a day apart in them (as the grass record's 15)
 DAYS, WINDOWS = 18, 15
-CANDIDATE = ["energy_balance_window"]
-#: the grass record's figures (docs/VALIDATION.md §5, ``energy_records.py rolling grass``)
-#: (re-run 28 Nov 15:37 UTC: 12 of 15 days better, F summed +36.4; the earlier run's 13 and
-#: +36.8 differ by one near-tie day), and its mean log(MSE_base / MSE_law) per day
-GRASS_SUM, GRASS_WINS, GRASS_LOG_RATIO = 36.4, 12, 0.60
+CANDIDATE = "energy_balance_window"
+DAY_H = 24.0
+#: the grass record's figures (``pavement-mcmc rolling runs/grass.toml runs/grass_energy.toml``,
+#: docs/VALIDATION.md §5): F summed, days the law forecasts better of 15, and the mean
+#: log(MSE_base / MSE_law) per day
+GRASS_SUM, GRASS_WINS, GRASS_LOG_RATIO = 48.3, 11, 0.78
 
 
 def one_twin(twin, root: Path) -> dict:
-    """Per-day forecast RMSEs and F of base and candidate over the twin's rolling windows."""
+    """Per-day forecast RMSEs and F of base and law over the twin's rolling windows
+    (:func:`pavement_mcmc.criticism.rolling.rolling_forecast`, as ``pavement-mcmc rolling``)."""
     t0 = time.perf_counter()
     case = write_twin(twin, root / twin.name)
-    days = []
-    for d in range(WINDOWS):
-        window = {"data": {"window_hours": [DAY_H * d, DAY_H * (d + 3)]}}
-        rb = run(case, None, window)
-        rc = run(case, CANDIDATE, window)
-        rho = float(pooled_lag1(rb["forecast_residuals"]))
-        m = rb["forecast_residuals"].size
-        days.append({"F": gain(m, rho, rb["forecast_rmse"], rc["forecast_rmse"]),
-                     "base": rb["forecast_rmse"], "cand": rc["forecast_rmse"],
-                     "base_in": rb["rmse"], "cand_in": rc["rmse"],
-                     "n_phi": m * (1 - rho) / (1 + rho), "at_bound": rc["at_bound"]})
+    res = rolling_forecast(str(case), f"{case}+{CANDIDATE}", days=WINDOWS)
+    days = [{"F": d.F, "base": d.base_rmse, "cand": d.law_rmse, "base_in": d.base_fit,
+             "cand_in": d.law_fit, "n_phi": d.n_phi} for d in res.days]
     return {"twin": twin.name, "category": twin.category, "hidden": list(twin.hidden),
-            "days": days, "F_sum": float(sum(x["F"] for x in days)),
-            "wins": int(sum(x["cand"] < x["base"] for x in days)),
-            "seconds": time.perf_counter() - t0}
+            "days": days, "F_sum": res.F_sum, "wins": res.wins, "p_value": res.p_value,
+            "named": res.named, "seconds": time.perf_counter() - t0}
 
 
 def report(records: list[dict]) -> None:
@@ -88,6 +76,10 @@ def report(records: list[dict]) -> None:
         lr = np.array([np.mean([2 * np.log(x["base"] / x["cand"]) for x in r["days"]]) for r in rows])
         print(f"  mean log(MSE_base / MSE_law) per day, by twin: {lr.min():+.2f} ... {lr.max():+.2f} "
               f"(median {np.median(lr):+.2f}; the grass record: {GRASS_LOG_RATIO:+.2f})")
+        named = int(sum(r["named"] for r in rows))
+        lo, hi = binomial_interval(named, len(rows))
+        print(f"  named by the rule (sign test p <= {LEVEL:g}, F summed > 0): {named} of "
+              f"{len(rows)} (95 %: {100 * lo:.0f}-{100 * hi:.0f} %)")
         print(f"  sums above the grass record's {GRASS_SUM}: {int(np.sum(s > GRASS_SUM))} of "
               f"{len(rows)}; {GRASS_WINS}+ days better: {int(np.sum(w >= GRASS_WINS))} of {len(rows)}")
         for r in rows:
@@ -106,8 +98,10 @@ def main(argv=None) -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--out", type=Path)
     ap.add_argument("--report", type=Path)
-    ap.add_argument("--clean", type=int, default=16, help="clean twins (seeds 600, 601, ...)")
-    ap.add_argument("--wind", type=int, default=5, help="wind_convection twins (seeds 700, ...)")
+    ap.add_argument("--clean", type=int, default=40, help="clean twins (default 40)")
+    ap.add_argument("--wind", type=int, default=10, help="wind_convection twins (default 10)")
+    ap.add_argument("--clean-from", type=int, default=600, help="first clean seed (600)")
+    ap.add_argument("--wind-from", type=int, default=700, help="first wind seed (700)")
     a = ap.parse_args(argv)
     if a.report:
         report([json.loads(ln) for ln in a.report.read_text().splitlines() if ln.strip()])
@@ -115,9 +109,10 @@ def main(argv=None) -> None:
     if a.out is None:
         ap.error("give --out (records) or --report")
     hours = DAYS * DAY_H
-    twins = (forecast_twins((), seeds=tuple(range(600, 600 + a.clean)), hours=hours, input_sigma=True)
-             + forecast_twins(("wind_convection",), seeds=tuple(range(700, 700 + a.wind)),
-                              hours=hours, input_sigma=True))
+    twins = (forecast_twins((), hours=hours, input_sigma=True,
+                            seeds=tuple(range(a.clean_from, a.clean_from + a.clean)))
+             + forecast_twins(("wind_convection",), hours=hours, input_sigma=True,
+                              seeds=tuple(range(a.wind_from, a.wind_from + a.wind))))
     done = set()
     if a.out.exists():
         done = {json.loads(ln)["twin"] for ln in a.out.read_text().splitlines() if ln.strip()}

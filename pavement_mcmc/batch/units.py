@@ -8,7 +8,6 @@ which units run, or which other units are in the batch.
 
 from __future__ import annotations
 
-import csv
 import hashlib
 import re
 from dataclasses import dataclass, field
@@ -16,7 +15,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..data import ConfigError, load_case
+from ..data import ConfigError, load_case, record_times
 from ..data.times import format_time, parse_time, seconds_between
 
 _DURATION = re.compile(r"^\s*([0-9]*\.?[0-9]+)\s*([smhd]?)\s*$")
@@ -70,17 +69,6 @@ def unit_seed(batch_seed: int, key: str) -> int:
     digest = hashlib.sha256(key.encode("utf-8")).digest()
     words = [int(batch_seed)] + [int.from_bytes(digest[i:i + 4], "little") for i in range(0, 16, 4)]
     return int(np.random.SeedSequence(words).generate_state(1)[0] & 0x7FFFFFFF)
-
-
-def record_times(case: str | Path) -> list[str]:
-    """The ISO times of every row of the case's CSV (the whole record, whatever its window)."""
-    cfg = load_case(case)
-    col = (cfg.data.get("columns") or {}).get("time", "time")
-    with open(cfg.csv_path, newline="", encoding="utf-8") as fh:
-        rows = [r for r in csv.DictReader(line for line in fh if not line.startswith("#"))]
-    if not rows or col not in rows[0]:
-        raise ConfigError(f"{cfg.csv_path}: no {col!r} column to cut windows from")
-    return [r[col] for r in rows]
 
 
 def window_units(case: str | Path, window: str | float | None = None, step: str | float | None = None,

@@ -28,6 +28,7 @@ COMMANDS = {
     "urban": "urban",
     "diagnose": "diagnose",
     "compare": "compare",
+    "rolling": "rolling",
     "batch": "batch",
 }
 

@@ -19,15 +19,22 @@ def load_point(path: str | Path, statistic: str = "mean"):
     a :class:`~pavement_mcmc.data.ConfigError` if h is already one value per interval).
     """
     from ..runs import point_estimate  # runs (h5py, the samplers) only when a point is loaded
+
+    pth = Path(str(path).split("+")[0])
+    if pth.suffix == ".toml":
+        problem, label = case_problem(path)
+        return problem, refit(problem).values(), "MAP fit", label
+    problem, values = point_estimate(pth, statistic)
+    return problem, values, f"posterior {statistic}", pth.name
+
+
+def case_problem(path: str | Path, overrides: dict | None = None):
+    """``(problem, label)`` of ``CASE.toml+ext1+ext2`` (see :func:`load_point`), with
+    ``overrides`` (e.g. another ``data.window_hours``) applied to the case."""
     from ..runs.start import resolve_finer_h
 
     base, *added = str(path).split("+")
     pth = Path(base)
-    if pth.suffix == ".toml":
-        ov, rest = resolve_finer_h(pth, {}, added)
-        cfg = load_case(pth, ov or None, additions={"model": {"extensions": rest}} if rest else None)
-        problem = build_problem(cfg)
-        label = cfg.name + "".join(f"+{a}" for a in added)
-        return problem, refit(problem).values(), "MAP fit", label
-    problem, values = point_estimate(pth, statistic)
-    return problem, values, f"posterior {statistic}", pth.name
+    ov, rest = resolve_finer_h(pth, dict(overrides or {}), added)
+    cfg = load_case(pth, ov or None, additions={"model": {"extensions": rest}} if rest else None)
+    return build_problem(cfg), cfg.name + "".join(f"+{a}" for a in added)

@@ -13,7 +13,7 @@
   (:class:`~.plugins.Registry`) of extensions, samplers and twin effects.
 """
 
-from .case import CaseConfig, dump_config, load_case, merge_overrides, parse_set
+from .case import CaseConfig, dump_config, load_case, merge_overrides, parse_set, record_times
 from .checks import DataError
 from .errors import RunError, RunExists, RunNotFound, UserError
 from .measurements import Measurements
@@ -46,4 +46,5 @@ __all__ = [
     "merge_overrides",
     "parse_set",
     "read_csv_case",
+    "record_times",
 ]

@@ -52,6 +52,7 @@ are kept but not checked here: the modules that own them check them.
 from __future__ import annotations
 
 import copy
+import csv
 import json
 import tomllib
 from collections.abc import Mapping
@@ -254,6 +255,17 @@ def parse_set(assignment: str) -> dict:
         except tomllib.TOMLDecodeError:
             continue
     raise ConfigError(f"--set {assignment!r}: {key!r} is not a valid dotted key")
+
+
+def record_times(case: str | Path) -> list[str]:
+    """The ISO times of every row of the case's CSV (the whole record, whatever its window)."""
+    cfg = load_case(case)
+    col = (cfg.data.get("columns") or {}).get("time", "time")
+    with open(cfg.csv_path, newline="", encoding="utf-8") as fh:
+        rows = [r for r in csv.DictReader(line for line in fh if not line.startswith("#"))]
+    if not rows or col not in rows[0]:
+        raise ConfigError(f"{cfg.csv_path}: no {col!r} column to cut windows from")
+    return [r[col] for r in rows]
 
 
 def dump_config(cfg: CaseConfig) -> str:

@@ -188,3 +188,29 @@ def plot_forecast(base, best=None, fig: Figure | None = None, labels=("base", ""
     fig.suptitle(f"held-out {base.horizon:g} h after a fit to the first {base.origins[-1]:g} h "
                  f"({base.future})", fontsize=9)
     return fig
+
+
+def plot_rolling(rolling, fig: Figure | None = None) -> Figure:
+    """Rolling next-day forecasts (:class:`~pavement_mcmc.criticism.rolling.Rolling`): each
+    day's forecast RMSE of the base and the law (above) and the day's forecast gain F (below,
+    positive: the law forecasts better)."""
+    fig = new_figure(fig, (9.0, 5.2))
+    ax1, ax2 = fig.subplots(2, 1, sharex=True, height_ratios=[2.0, 1.2])
+    x = np.arange(rolling.n)
+    base = [d.base_rmse for d in rolling.days]
+    law = [d.law_rmse for d in rolling.days]
+    ax1.plot(x, base, "o-", color="#7f7f7f", lw=1.0, ms=4, label=f"{rolling.base} (base)")
+    ax1.plot(x, law, "s-", color="#d62728", lw=1.0, ms=4, label=f"{rolling.law} (law)")
+    ax1.set_ylabel(f"next {rolling.horizon_h:g} h forecast RMSE (°C)")
+    ax1.set_ylim(bottom=0)
+    ax1.legend(fontsize=8)
+    ax1.set_title(f"{rolling.law} better on {rolling.wins} of {rolling.n} days (sign test "
+                  f"p = {rolling.p_value:.3f}; {'named' if rolling.named else 'not named'}); "
+                  f"each fit to the {rolling.window_h:g} h before the day", fontsize=9)
+    F = np.array([d.F for d in rolling.days])
+    ax2.bar(x, F, color=np.where(F > 0, "#d62728", "#7f7f7f"))
+    ax2.axhline(0, color="k", lw=0.5)
+    ax2.set_ylabel("forecast gain F")
+    ax2.set_xticks(x, [d.time[:10] for d in rolling.days], rotation=60, fontsize=7)
+    ax2.set_xlabel("first day of the fitted window (UTC)")
+    return fig

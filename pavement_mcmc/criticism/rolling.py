@@ -1,0 +1,191 @@
+r"""Next-day forecasts day after day over a long record: does a law forecast better than the
+base model more often than chance?
+
+One held-out day is a weak test on a field record: its forecast errors are smooth (lag-1 0.8–0.96
+on the two shared records), so a day of 48 rows counts as 3–9 independent data and no model
+reaches the criticism's margin on it (``docs/VALIDATION.md`` §5). A record of many days gives many
+such tests. For each *origin* (every ``step`` hours from ``start``) both cases are cut to a window
+of ``window + horizon`` hours, fitted by MAP on its first ``window`` hours and forecast for the
+``horizon`` hours after it from the forcing alone (:func:`~.forecast.forecast`: the future h(t)
+of a per-interval base model by its clock-hour mean, a law's parameters as fitted, a daily
+coefficient by its last fitted day). Per day: the two forecast RMSEs and the forecast gain F of
+the criticism (:func:`~.forecast.gain`, n/φ from the base errors' lag-1).
+
+The statistic is the **count of days** on which the law forecasts better (a lower RMSE), judged
+by the one-sided sign test against a fair coin: a law no better than the base wins at most half
+the days. Per-day F values do not share a scale across records (n/φ per day 120 on the twins of
+``benchmarks/rolling_null.py``, 3–7 on the grass record), so their sum is reported, not tested.
+The law is **named** when the sign test's p ≤ :data:`LEVEL` and the summed F is positive.
+Consecutive origins share training data; the held-out days do not overlap, and the test treats
+them as independent (on clean twins the law wins 5 of 15 days in the median, so the coin is a
+conservative null there: ``benchmarks/rolling_null.py`` gives the false-naming rate).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+from scipy.stats import binom
+
+from ..data import ConfigError, record_times
+from ..data.times import format_time, parse_time, seconds_between
+from .forecast import forecast, gain
+from .point import case_problem
+
+#: one-sided level of the sign test that names the law
+LEVEL = 0.05
+#: window (fitted) and horizon (forecast) hours, and hours between origins
+WINDOW_H, HORIZON_H, STEP_H = 72.0, 24.0, 24.0
+
+
+@dataclass
+class Day:
+    """One origin: the window ``[start_h, start_h + window)`` h fitted, the next ``horizon``
+    forecast. RMSEs in degC; ``n_phi`` the held-out data's effective count."""
+
+    start_h: float
+    time: str
+    base_rmse: float
+    law_rmse: float
+    base_fit: float
+    law_fit: float
+    F: float
+    n_phi: float
+
+    @property
+    def law_better(self) -> bool:
+        return self.law_rmse < self.base_rmse
+
+
+@dataclass
+class Rolling:
+    """Rolling next-day forecasts of a base case and a law (module doc)."""
+
+    base: str
+    law: str
+    window_h: float
+    horizon_h: float
+    days: list[Day] = field(default_factory=list)
+
+    @property
+    def n(self) -> int:
+        return len(self.days)
+
+    @property
+    def wins(self) -> int:
+        return int(sum(d.law_better for d in self.days))
+
+    @property
+    def p_value(self) -> float:
+        """One-sided sign test: P(at least ``wins`` of ``n`` days | a fair coin)."""
+        return float(binom.sf(self.wins - 1, self.n, 0.5)) if self.n else 1.0
+
+    @property
+    def F_sum(self) -> float:
+        return float(sum(d.F for d in self.days))
+
+    @property
+    def named(self) -> bool:
+        return self.n > 0 and self.p_value <= LEVEL and self.F_sum > 0
+
+    def medians(self) -> dict[str, float]:
+        keys = ("base_rmse", "law_rmse", "base_fit", "law_fit")
+        return {k: float(np.median([getattr(d, k) for d in self.days])) for k in keys}
+
+    def verdict(self) -> str:
+        m = self.medians()
+        how = (f"{self.law} forecasts the next {self.horizon_h:g} h better than {self.base} on "
+               f"{self.wins} of {self.n} days (sign test p = {self.p_value:.3f}; median forecast "
+               f"RMSE {m['base_rmse']:.3f} → {m['law_rmse']:.3f} °C; F summed {self.F_sum:+.1f})")
+        if self.named:
+            return f"named: {how}: the law predicts what the base model's free parameters cannot."
+        return (f"not named: {how}: not more often than a fair coin at the {LEVEL:g} level"
+                + (", and F summed is not positive" if self.F_sum <= 0 else "") + ".")
+
+    def text(self) -> str:
+        lines = [self.verdict(), "",
+                 f"{'window start':<22}{'forecast °C: base':>18}{'law':>8}{'fit °C: base':>14}"
+                 f"{'law':>8}{'F':>8}{'n/φ':>7}"]
+        for d in self.days:
+            lines.append(f"{d.time:<22}{d.base_rmse:>18.3f}{d.law_rmse:>8.3f}{d.base_fit:>14.3f}"
+                         f"{d.law_fit:>8.3f}{d.F:>+8.1f}{d.n_phi:>7.1f}"
+                         + ("  law better" if d.law_better else ""))
+        m = self.medians()
+        lines.append(f"{'median':<22}{m['base_rmse']:>18.3f}{m['law_rmse']:>8.3f}"
+                     f"{m['base_fit']:>14.3f}{m['law_fit']:>8.3f}")
+        return "\n".join(lines)
+
+    def to_dict(self) -> dict:
+        return {"base": self.base, "law": self.law, "window_h": self.window_h,
+                "horizon_h": self.horizon_h, "n": self.n, "wins": self.wins,
+                "p_value": self.p_value, "F_sum": self.F_sum, "named": self.named,
+                "level": LEVEL, "medians": self.medians(),
+                "days": [dict(vars(d)) for d in self.days]}
+
+
+def origins(case: str | Path, *, window_h: float = WINDOW_H, horizon_h: float = HORIZON_H,
+            step_h: float = STEP_H, start_h: float = 0.0, days: int | None = None) -> list[float]:
+    """Window starts (hours from the record's first row) every ``step_h`` from ``start_h`` whose
+    window and forecast fit in the record, at most ``days`` of them."""
+    for name, v in (("window", window_h), ("horizon", horizon_h), ("step", step_h)):
+        if not v > 0:
+            raise ConfigError(f"the {name} must be positive hours, got {v!r}")
+    if start_h < 0:
+        raise ConfigError(f"the first window start must be >= 0 h, got {start_h!r}")
+    span = float(seconds_between(record_times(str(case).split("+")[0]))[-1]) / 3600.0
+    out = list(np.arange(start_h, span - window_h - horizon_h + 1e-9, step_h))
+    if days is not None:
+        out = out[:days]
+    if len(out) < 1:
+        raise ConfigError(f"{case}: a {window_h:g} h window and a {horizon_h:g} h forecast from "
+                          f"{start_h:g} h do not fit in the {span:g} h record")
+    return [float(a) for a in out]
+
+
+def _one(case: str, a: float, window_h: float, horizon_h: float, max_nfev: int):
+    problem, label = case_problem(case, {"data": {"window_hours": [a, a + window_h + horizon_h]}})
+    fc = forecast(problem, origins=[window_h], horizon=horizon_h, max_nfev=max_nfev)
+    return fc, fc.fits[-1].rmse, label
+
+
+def rolling_forecast(base: str | Path, law: str | Path, *, window_h: float = WINDOW_H,
+                     horizon_h: float = HORIZON_H, step_h: float = STEP_H, start_h: float = 0.0,
+                     days: int | None = None, max_nfev: int = 200,
+                     progress: Callable[[int, int, Day], None] | None = None) -> Rolling:
+    """Rolling next-day forecasts of two cases over their record (module doc).
+
+    Parameters
+    ----------
+    base, law : case TOMLs on the same record, ``CASE.toml+ext`` adds extensions (e.g.
+        ``runs/grass.toml+energy_balance_window``); their ``window_hours`` are replaced.
+    window_h, horizon_h, step_h : fitted hours, forecast hours, hours between window starts.
+    start_h, days : the first window start (hours from the record's first row) and the number
+        of windows (default: as many as fit).
+    max_nfev : least-squares iterations of each MAP refit.
+    progress : called as ``progress(i, n, day)`` after each window (library code prints nothing).
+    """
+    starts = origins(base, window_h=window_h, horizon_h=horizon_h, step_h=step_h,
+                     start_h=start_h, days=days)
+    t0 = parse_time(record_times(str(base).split("+")[0])[0]).timestamp()
+    for case in (base, law):  # a bad case or extension fails before any fit
+        case_problem(case, {"data": {"window_hours": [starts[0], starts[0] + window_h + horizon_h]}})
+    out = None
+    for i, a in enumerate(starts):
+        fb, fit_b, label_b = _one(str(base), a, window_h, horizon_h, max_nfev)
+        fl, fit_l, label_l = _one(str(law), a, window_h, horizon_h, max_nfev)
+        if fb.n != fl.n:
+            raise ConfigError(f"{base} and {law} hold out {fb.n} and {fl.n} data from the window "
+                              f"at {a:g} h: they must observe the same sensors of the same record")
+        if out is None:
+            out = Rolling(label_b, label_l, float(window_h), float(horizon_h))
+        day = Day(start_h=a, time=format_time(t0 + a * 3600.0), base_rmse=fb.rmse,
+                  law_rmse=fl.rmse, base_fit=float(fit_b), law_fit=float(fit_l),
+                  F=gain(fb.n, fb.rho, fb.rmse, fl.rmse),
+                  n_phi=fb.n * (1 - fb.rho) / (1 + fb.rho))
+        out.days.append(day)
+        if progress is not None:
+            progress(i + 1, len(starts), day)
+    return out

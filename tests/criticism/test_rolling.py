@@ -1,0 +1,73 @@
+"""``pavement-mcmc rolling``: next-day forecasts a day apart over a record, a law named by the
+sign test (criticism/rolling.py). Twins from the independent simulator: a wind-driven h, which
+the law ``energy_balance_window`` contains, and a clean h drawn day by day, which no law makes."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+from scipy.stats import binom
+
+from pavement_mcmc.cli import main
+from pavement_mcmc.criticism.rolling import LEVEL, Day, Rolling, origins, rolling_forecast
+from pavement_mcmc.data import ConfigError
+from pavement_mcmc.synthetic.corpus import forecast_twins, write_twin
+
+LAW = "energy_balance_window"
+#: 8 days: five 72 h windows, each with the next day (5 of 5 is the fewest days a sign test
+#: at 0.05 can name: p = 1/32)
+HOURS = 8 * 24.0
+
+
+def _case(tmp_path, effect, seed):
+    twin = forecast_twins((effect,) if effect else (), (seed,), hours=HOURS, input_sigma=True)[0]
+    return write_twin(twin, tmp_path / twin.name)
+
+
+def _day(base, law, F=0.0):
+    return Day(0.0, "t", base, law, 0.1, 0.1, F, 5.0)
+
+
+def test_sign_test_and_naming():
+    r = Rolling("b", "l", 72.0, 24.0, [_day(1.0, 0.5, 3.0)] * 11 + [_day(0.5, 1.0, -1.0)] * 4)
+    assert r.wins == 11 and r.p_value == pytest.approx(binom.sf(10, 15, 0.5))
+    assert r.p_value > LEVEL and not r.named  # 11 of 15: p = 0.059
+    r.days.append(_day(1.0, 0.5, 3.0))
+    assert r.wins == 12 and r.p_value <= LEVEL and r.named  # 12 of 16: p = 0.038
+    neg = Rolling("b", "l", 72.0, 24.0, [_day(1.0, 0.9, -1.0)] * 12)  # wins but F summed < 0
+    assert neg.p_value <= LEVEL and not neg.named and "not positive" in neg.verdict()
+
+
+def test_origins_fit_in_the_record(tmp_path):
+    case = _case(tmp_path, None, 600)
+    assert origins(case) == [0.0, 24.0, 48.0, 72.0, 96.0]
+    assert origins(case, step_h=48.0, start_h=24.0) == [24.0, 72.0]
+    assert origins(case, days=2) == [0.0, 24.0]
+    with pytest.raises(ConfigError, match="do not fit"):
+        origins(case, window_h=180.0)
+
+
+def test_a_wind_driven_h_is_named_and_a_clean_one_is_not(tmp_path):
+    wind = rolling_forecast(_case(tmp_path, "wind_convection", 700),
+                            f"{_case(tmp_path, 'wind_convection', 700)}+{LAW}")
+    assert wind.n == 5 and wind.wins == 5 and wind.named, wind.text()
+    assert np.median([d.law_rmse / d.base_rmse for d in wind.days]) < 0.8
+    clean_case = _case(tmp_path, None, 601)
+    clean = rolling_forecast(clean_case, f"{clean_case}+{LAW}")
+    assert clean.n == 5 and not clean.named, clean.text()
+
+
+def test_cli_writes_the_figure_and_refuses_bad_input_before_any_fit(tmp_path, capsys):
+    case = _case(tmp_path, "wind_convection", 702)
+    fig = tmp_path / "r.png"
+    assert main(["rolling", str(case), f"{case}+{LAW}", "--days", "1", "--figure", str(fig),
+                 "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["n"] == 1 and len(out["days"]) == 1 and fig.stat().st_size > 10_000
+    bad = tmp_path / "bad.png"
+    for args in ([str(case), f"{case}+no_such_law"], [str(case), str(tmp_path / "none.toml")],
+                 [str(case), str(case), "--days", "0"], [str(case), str(case), "--window", "300h"]):
+        assert main(["rolling", *args, "--figure", str(bad)]) == 2
+        assert not bad.exists()
