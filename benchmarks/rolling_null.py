@@ -16,6 +16,7 @@ LE = alpha s/(s+gamma) max(R_n, 0)) against the free h of the twin's Case C form
     PYTHONPATH=. NUMBA_NUM_THREADS=1 OMP_NUM_THREADS=1 python benchmarks/rolling_null.py \
         --out rolling_null.jsonl [--clean 40] [--wind 10] [--clean-from 600] [--wind-from 700]
     PYTHONPATH=. python benchmarks/rolling_null.py --report rolling_null.jsonl
+    PYTHONPATH=. python benchmarks/rolling_null.py --report docs/campaign/rolling_null_s600.jsonl.gz
 
 One JSON line per twin (resumed: twins in ``--out`` are skipped). Without OMP_NUM_THREADS=1
 the BLAS threads of the MAP refits oversubscribe the cores and a twin takes minutes.
@@ -24,6 +25,7 @@ the BLAS threads of the MAP refits oversubscribe the cores and a twin takes minu
 from __future__ import annotations
 
 import argparse
+import gzip
 import json
 import tempfile
 import time
@@ -104,7 +106,9 @@ def main(argv=None) -> None:
     ap.add_argument("--wind-from", type=int, default=700, help="first wind seed (700)")
     a = ap.parse_args(argv)
     if a.report:
-        report([json.loads(ln) for ln in a.report.read_text().splitlines() if ln.strip()])
+        text = (gzip.decompress(a.report.read_bytes()).decode() if a.report.suffix == ".gz"
+                else a.report.read_text())
+        report([json.loads(ln) for ln in text.splitlines() if ln.strip()])
         return
     if a.out is None:
         ap.error("give --out (records) or --report")

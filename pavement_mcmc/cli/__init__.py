@@ -44,6 +44,8 @@ Typical loop:
   pavement-mcmc diagnose runs/caseA                        which physical effect is missing?
   pavement-mcmc fit runs/caseA.toml --add two_layer --out runs/caseA_2l
   pavement-mcmc compare runs/caseA runs/caseA_2l          watch the error fall
+  pavement-mcmc rolling runs/grass.toml runs/grass_energy.toml
+                                     does the law forecast the next day better, day after day?
 """
 
 
