@@ -16,6 +16,8 @@ LE = alpha s/(s+gamma) max(R_n, 0)) against the free h of the twin's Case C form
     PYTHONPATH=. NUMBA_NUM_THREADS=1 OMP_NUM_THREADS=1 python benchmarks/rolling_null.py \
         --out rolling_null.jsonl [--clean 40] [--wind 10] [--clean-from 600] [--wind-from 700]
     PYTHONPATH=. python benchmarks/rolling_null.py --report rolling_null.jsonl
+    ... --clean 0 --wind 40 --base-ext wind_convection   (the true law as the base: the null of
+                                                          a law nearly right)
     PYTHONPATH=. python benchmarks/rolling_null.py --report docs/campaign/rolling_null_s600.jsonl.gz
 
 One JSON line per twin (resumed: twins in ``--out`` are skipped). Without OMP_NUM_THREADS=1
@@ -47,23 +49,26 @@ DAY_H = 24.0
 GRASS_SUM, GRASS_WINS, GRASS_LOG_RATIO = 48.3, 11, 0.78
 
 
-def one_twin(twin, root: Path) -> dict:
+def one_twin(twin, root: Path, base_ext: str | None = None) -> dict:
     """Per-day forecast RMSEs and F of base and law over the twin's rolling windows
     (:func:`pavement_mcmc.criticism.rolling.rolling_forecast`, as ``pavement-mcmc rolling``)."""
     t0 = time.perf_counter()
     case = write_twin(twin, root / twin.name)
-    res = rolling_forecast(str(case), f"{case}+{CANDIDATE}", days=WINDOWS)
+    base = f"{case}+{base_ext}" if base_ext else str(case)
+    res = rolling_forecast(base, f"{case}+{CANDIDATE}", days=WINDOWS)
     days = [{"F": d.F, "base": d.base_rmse, "cand": d.law_rmse, "base_in": d.base_fit,
              "cand_in": d.law_fit, "n_phi": d.n_phi} for d in res.days]
     return {"twin": twin.name, "category": twin.category, "hidden": list(twin.hidden),
             "days": days, "F_sum": res.F_sum, "wins": res.wins, "p_value": res.p_value,
-            "named": res.named, "seconds": time.perf_counter() - t0}
+            "named": res.named, "base_ext": base_ext, "seconds": time.perf_counter() - t0}
 
 
 def report(records: list[dict]) -> None:
     clean = [r for r in records if r["category"] == "clean"]
-    other = [r for r in records if r["category"] != "clean"]
-    for name, rows in (("clean", clean), ("hidden effect", other)):
+    other = [r for r in records if r["category"] != "clean" and not r.get("base_ext")]
+    truth = [r for r in records if r["category"] != "clean" and r.get("base_ext")]
+    for name, rows in (("clean", clean), ("hidden effect", other),
+                       ("hidden effect, its law in the base", truth)):
         if not rows:
             continue
         s = np.array([r["F_sum"] for r in rows])
@@ -104,6 +109,9 @@ def main(argv=None) -> None:
     ap.add_argument("--wind", type=int, default=10, help="wind_convection twins (default 10)")
     ap.add_argument("--clean-from", type=int, default=600, help="first clean seed (600)")
     ap.add_argument("--wind-from", type=int, default=700, help="first wind seed (700)")
+    ap.add_argument("--base-ext", metavar="EXT",
+                    help="add EXT to the base case (wind_convection on wind twins: the true law "
+                    "as the base, the null of a law with more in it than the truth)")
     a = ap.parse_args(argv)
     if a.report:
         text = (gzip.decompress(a.report.read_bytes()).decode() if a.report.suffix == ".gz"
@@ -124,7 +132,7 @@ def main(argv=None) -> None:
         for twin in twins:
             if twin.name in done:
                 continue
-            rec = one_twin(twin, Path(tmp))
+            rec = one_twin(twin, Path(tmp), a.base_ext)
             with a.out.open("a") as fh:
                 fh.write(json.dumps(rec) + "\n")
             print(f"{rec['twin']}: F summed {rec['F_sum']:+.1f}, better on {rec['wins']} of "
