@@ -52,7 +52,6 @@ are kept but not checked here: the modules that own them check them.
 from __future__ import annotations
 
 import copy
-import csv
 import json
 import tomllib
 from collections.abc import Mapping
@@ -61,8 +60,9 @@ from pathlib import Path
 from typing import Any
 
 from .measurements import Measurements
-from .reader import read_csv_case
+from .reader import read_csv_case, record_stamps
 from .schema import GRID_DEFAULTS, SAMPLER_DEFAULTS, ConfigError, _check_h, _validate
+from .times import format_time
 
 __all__ = ["CaseConfig", "dump_config", "load_case", "merge_overrides", "parse_set"]
 
@@ -121,6 +121,10 @@ class CaseConfig:
     def sampler(self) -> dict:
         """[sampler] with defaults from :data:`SAMPLER_DEFAULTS`."""
         return {**SAMPLER_DEFAULTS, **copy.deepcopy(self.raw.get("sampler", {}))}
+
+
+#: the [data] keys of a flux-site preset's options (data/fluxsite.py)
+PRESET_KEYS = ("utc_offset_hours", "depths_cm", "timestamp")
 
 
 def load_case(
@@ -186,8 +190,7 @@ def load_case(
             max_gap_fill=data.get("max_gap_fill", 0),
             extras=extras_path,
             preset=data.get("preset"),
-            preset_options={k: data[k] for k in ("utc_offset_hours", "depths_cm", "timestamp")
-                            if k in data},
+            preset_options={k: data[k] for k in PRESET_KEYS if k in data},
             forcing_optional=raw.get("model", {}).get("top") == "measured",
         )
     except ValueError as exc:
@@ -258,14 +261,13 @@ def parse_set(assignment: str) -> dict:
 
 
 def record_times(case: str | Path) -> list[str]:
-    """The ISO times of every row of the case's CSV (the whole record, whatever its window)."""
+    """The ISO UTC times of every row of the case's CSV (the whole record, whatever its
+    window), its time column read as the case reads it (renames, a flux-site preset)."""
     cfg = load_case(case)
-    col = (cfg.data.get("columns") or {}).get("time", "time")
-    with open(cfg.csv_path, newline="", encoding="utf-8") as fh:
-        rows = [r for r in csv.DictReader(line for line in fh if not line.startswith("#"))]
-    if not rows or col not in rows[0]:
-        raise ConfigError(f"{cfg.csv_path}: no {col!r} column to cut windows from")
-    return [r[col] for r in rows]
+    data = cfg.data
+    stamps = record_stamps(cfg.csv_path, data.get("columns"), data.get("preset"),
+                           {k: data[k] for k in PRESET_KEYS if k in data})
+    return [format_time(float(x)) for x in stamps]
 
 
 def dump_config(cfg: CaseConfig) -> str:

@@ -106,3 +106,25 @@ def test_an_impossible_utc_offset_is_a_clear_error(tmp_path, offset):
     _site(tmp_path)
     with pytest.raises(DataError, match=r"utc_offset_hours = .*between -12 and \+14"):
         load_case(_toml(tmp_path, f"utc_offset_hours = {offset}\nmax_gap_fill = 1\n" + DEPTHS))
+
+
+def test_the_whole_records_times_of_a_preset_case_and_of_a_renamed_time_column(tmp_path):
+    """record_times (batch windows, ``pavement-mcmc rolling``) looked for a column named
+    ``time``: a flux-site file has TIMESTAMP_START/END, a renamed one another name, and both
+    were refused ("no 'time' column to cut windows from")."""
+    from pavement_mcmc.batch import window_units
+    from pavement_mcmc.data import record_times
+
+    _site(tmp_path)
+    case = _toml(tmp_path, "utc_offset_hours = -7\nmax_gap_fill = 1\nwindow_hours = [0, 2]\n"
+                 + DEPTHS)
+    times = record_times(case)
+    assert len(times) == N and times[0] == "2021-07-01T07:15:00Z"
+    assert times[-1] == "2021-07-01T11:45:00Z"  # the window does not cut the record
+    assert [u.window_hours for u in window_units(case, "2h", "2h")] == [(0.0, 2.0), (2.0, 4.0)]
+    plain = tmp_path / "plain.csv"
+    plain.write_text("stamp,T_air,q_net,T_0cm,T_5cm\n" + "".join(
+        f"2021-07-01T{h:02d}:00:00Z,20,100,21,20\n" for h in range(6)))
+    renamed = tmp_path / "renamed.toml"
+    renamed.write_text('[data]\ncsv = "plain.csv"\nsigma = 0.1\n[data.columns]\nstamp = "time"\n')
+    assert record_times(renamed) == [f"2021-07-01T{h:02d}:00:00Z" for h in range(6)]
