@@ -87,3 +87,18 @@ def test_false_naming_rate_on_fresh_clean_twins_and_power_on_wind_twins(tmp_path
     clean = [named(None, s) for s in range(640, 652)]
     assert sum(clean) <= 1, clean
     assert all(named("wind_convection", s) for s in range(710, 713))
+
+
+def test_diagnose_points_a_surface_verdict_at_the_rolling_test():
+    """When nothing is claimed and the evidence points at the surface energy balance, the next
+    step names ``pavement-mcmc rolling`` (it named only the extension template before)."""
+    from types import SimpleNamespace
+
+    from pavement_mcmc.cli.diagnose import next_step
+
+    surface = SimpleNamespace(best=None, unexplained=None,
+                              points_at={"where": "surface energy balance", "candidates": []})
+    assert "pavement-mcmc rolling <case.toml> <case.toml>+energy_balance_window" in \
+        " ".join(next_step(surface))
+    assert not any("rolling" in x for x in next_step(SimpleNamespace(best=None, unexplained=None,
+                                                                       points_at=None)))
