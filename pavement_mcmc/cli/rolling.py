@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import re
 import sys
 import textwrap
 from pathlib import Path
@@ -39,7 +40,7 @@ def add_parser(sub) -> None:
                    help="the first window start after the record's first row (default 0h)")
     p.add_argument("--days", type=int, metavar="N", help="number of windows (default: all that fit)")
     p.add_argument("--figure", metavar="PNG",
-                   help="the figure (default: <base>_rolling.png beside the base TOML)")
+                   help="the figure (default: <base>_rolling_<law>.png beside the base TOML)")
     add_json_flag(p)
     p.set_defaults(func=run)
 
@@ -66,7 +67,9 @@ def run(args) -> int:
                            step_h=parse_duration(args.step), start_h=_hours(args.start),
                            days=args.days, progress=progress)
     base = Path(args.base.split("+")[0])
-    fig_path = Path(args.figure) if args.figure else base.with_name(base.stem + "_rolling.png")
+    law = re.sub(r"[^\w.+-]", "_", Path(args.law).name.replace(".toml", ""))
+    fig_path = (Path(args.figure) if args.figure
+                else base.with_name(f"{base.stem}_rolling_{law}.png"))
     plot_rolling(res).savefig(fig_path, dpi=110)
     payload = res.to_dict()
     payload["figure"] = str(fig_path)
@@ -78,4 +81,6 @@ def _hours(text: str) -> float:
     """``--from``: a duration, or 0."""
     from ..batch.units import parse_duration
 
-    return 0.0 if str(text).strip() in ("0", "0h") else parse_duration(text)
+    if re.fullmatch(r"\s*0*\.?0*\s*[smhd]?\s*", str(text)) and re.search(r"0", str(text)):
+        return 0.0  # any zero: 0, 0h, 0.0h, 0m, 0d
+    return parse_duration(text)

@@ -32,21 +32,40 @@ def _day(base, law, F=0.0):
 
 def test_sign_test_and_naming():
     r = Rolling("b", "l", 72.0, 24.0, [_day(1.0, 0.5, 3.0)] * 11 + [_day(0.5, 1.0, -1.0)] * 4)
-    assert r.wins == 11 and r.p_value == pytest.approx(binom.sf(10, 15, 0.5))
-    assert r.p_value > LEVEL and not r.named  # 11 of 15: p = 0.059
+    assert r.wins == 11 and r.p_value == pytest.approx(0.059235, abs=1e-6)  # 1941 / 32768
+    assert not r.named  # 11 of 15: p > 0.05
     r.days.append(_day(1.0, 0.5, 3.0))
-    assert r.wins == 12 and r.p_value <= LEVEL and r.named  # 12 of 16: p = 0.038
+    assert r.wins == 12 and r.p_value == pytest.approx(0.038406, abs=1e-6) and r.named
     neg = Rolling("b", "l", 72.0, 24.0, [_day(1.0, 0.9, -1.0)] * 12)  # wins but F summed < 0
     assert neg.p_value <= LEVEL and not neg.named and "not positive" in neg.verdict()
+    tie = Rolling("b", "l", 72.0, 24.0, [_day(0.5, 0.5)] * 6)
+    assert tie.wins == 0 and tie.p_value == 1.0  # a tie is not a win
 
 
-def test_origins_fit_in_the_record(tmp_path):
+def test_origins_fit_in_the_record_on_its_rows(tmp_path):
     case = _case(tmp_path, None, 600)
     assert origins(case) == [0.0, 24.0, 48.0, 72.0, 96.0]
     assert origins(case, step_h=48.0, start_h=24.0) == [24.0, 72.0]
     assert origins(case, days=2) == [0.0, 24.0]
+    assert origins(case, start_h=0.2, days=2) == [0.5, 24.5]  # 30 min rows: the next row
     with pytest.raises(ConfigError, match="do not fit"):
         origins(case, window_h=180.0)
+    with pytest.raises(ConfigError, match="overlap"):
+        origins(case, step_h=6.0)  # forecast days a quarter day apart would overlap
+    for bad in ({"days": 0}, {"days": -1}, {"start_h": float("nan")}, {"window_h": float("inf")}):
+        with pytest.raises(ConfigError):
+            origins(case, **bad)
+
+
+def test_two_cases_on_different_records_are_refused_before_any_fit(tmp_path):
+    a, b = _case(tmp_path, None, 600), _case(tmp_path, None, 601)
+    longer = forecast_twins((), (602,), hours=HOURS + 24.0, input_sigma=True)[0]
+    c = write_twin(longer, tmp_path / "longer")
+    fits = []
+    for law in (b, c):  # the same times, other data; other times
+        with pytest.raises(ConfigError, match="different records or sensors"):
+            rolling_forecast(a, law, progress=lambda *x: fits.append(x))
+    assert not fits
 
 
 def test_a_wind_driven_h_is_named_and_a_clean_one_is_not(tmp_path):
