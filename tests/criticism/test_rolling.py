@@ -8,7 +8,6 @@ import json
 
 import numpy as np
 import pytest
-from scipy.stats import binom
 
 from pavement_mcmc.cli import main
 from pavement_mcmc.criticism.rolling import LEVEL, Day, Rolling, origins, rolling_forecast
