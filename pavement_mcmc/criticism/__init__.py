@@ -16,6 +16,8 @@ Public API
 - :func:`~.holdout.leave_one_sensor_out` -> :class:`~.holdout.HoldOut`;
 - :func:`~.fitting.refit` -> :class:`~.fitting.Fit` (quick MAP refit);
 - :func:`~.point.load_point` -> the point estimate of a run folder or a case TOML to judge;
+- :func:`~.rolling.rolling_forecast` -> :class:`~.rolling.Rolling` (next-day forecasts of two
+  cases a day apart over a record; ``pavement-mcmc rolling``);
 """
 
 from __future__ import annotations
@@ -28,6 +30,7 @@ from .ledger import Ledger, ledger
 from .point import load_point
 from .ranking import finer_h_spec, rank_missing_effects
 from .residuals import ResidualReport, analyse, analyse_point, noise_like, plain_signals
+from .rolling import Rolling, rolling_forecast
 from .unexplained import Unexplained
 
 __all__ = [
@@ -38,6 +41,7 @@ __all__ = [
     "Ledger",
     "Ranking",
     "ResidualReport",
+    "Rolling",
     "Unexplained",
     "analyse",
     "analyse_point",
@@ -50,4 +54,5 @@ __all__ = [
     "plain_signals",
     "rank_missing_effects",
     "refit",
+    "rolling_forecast",
 ]

@@ -84,6 +84,8 @@ def test_cli_writes_the_figure_and_refuses_bad_input_before_any_fit(tmp_path, ca
                  "--json"]) == 0
     out = json.loads(capsys.readouterr().out)
     assert out["n"] == 1 and len(out["days"]) == 1 and fig.stat().st_size > 10_000
+    api = rolling_forecast(case, f"{case}+{LAW}", days=1).to_dict()  # the same from Python
+    assert out["days"] == api["days"] and out["p_value"] == api["p_value"]
     bad = tmp_path / "bad.png"
     for args in ([str(case), f"{case}+no_such_law"], [str(case), str(tmp_path / "none.toml")],
                  [str(case), str(case), "--days", "0"], [str(case), str(case), "--window", "300h"]):
