@@ -31,6 +31,7 @@ from pathlib import Path
 
 import numpy as np
 from scipy.stats import binom
+from threadpoolctl import threadpool_limits
 
 from ..data import ConfigError, record_times
 from ..data.times import format_time, parse_time, seconds_between
@@ -185,7 +186,17 @@ def rolling_forecast(base: str | Path, law: str | Path, *, window_h: float = WIN
         of windows (default: as many as fit).
     max_nfev : least-squares iterations of each MAP refit.
     progress : called as ``progress(i, n, day)`` after each window (library code prints nothing).
+
+    The refits run with one BLAS thread whatever ``OMP_NUM_THREADS`` says (as the command line
+    and the fits do, ``runs/threads.py``): BLAS threads fight the compiled solver for the cores
+    (a day 1.6x slower on an idle 2-core machine, minutes under load) and change the last
+    digits of a refit.
     """
+    with threadpool_limits(limits=1, user_api="blas"):
+        return _rolling(base, law, window_h, horizon_h, step_h, start_h, days, max_nfev, progress)
+
+
+def _rolling(base, law, window_h, horizon_h, step_h, start_h, days, max_nfev, progress) -> Rolling:
     starts = origins(base, window_h=window_h, horizon_h=horizon_h, step_h=step_h,
                      start_h=start_h, days=days)
     t0 = parse_time(record_times(str(base).split("+")[0])[0]).timestamp()

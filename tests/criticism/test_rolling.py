@@ -122,3 +122,20 @@ def test_diagnose_points_a_surface_verdict_at_the_rolling_test():
         " ".join(next_step(surface))
     assert not any("rolling" in x for x in next_step(SimpleNamespace(best=None, unexplained=None,
                                                                        points_at=None)))
+
+
+def test_the_refits_run_with_one_blas_thread_whatever_the_caller_allows(tmp_path):
+    """BLAS threads fight the compiled solver for the cores (the API outside the CLI had
+    whatever OMP_NUM_THREADS gave: a day 1.6x slower on an idle machine, minutes under load)."""
+    from threadpoolctl import threadpool_info, threadpool_limits
+
+    case = _case(tmp_path, None, 600)
+    seen = []
+    with threadpool_limits(limits=2, user_api="blas"):
+        blas = [p["num_threads"] for p in threadpool_info() if p["user_api"] == "blas"]
+        if not blas:
+            pytest.skip("no BLAS library found by threadpoolctl")
+        assert set(blas) == {2}  # the caller allows two
+        rolling_forecast(case, f"{case}+{LAW}", days=1, progress=lambda *a: seen.extend(
+            p["num_threads"] for p in threadpool_info() if p["user_api"] == "blas"))
+    assert seen and set(seen) == {1}, seen
