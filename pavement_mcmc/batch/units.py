@@ -54,13 +54,15 @@ class Unit:
         return ov
 
 
-def parse_duration(text: str | float) -> float:
-    """``"24h"``, ``"90m"``, ``"2d"``, ``"3600s"`` or a bare number of hours -> hours."""
+def parse_duration(text: str | float, allow_zero: bool = False) -> float:
+    """``"24h"``, ``"90m"``, ``"2d"``, ``"3600s"`` or a bare number of hours -> hours; zero
+    only with ``allow_zero`` (an offset, not a length)."""
     if isinstance(text, int | float):
         return float(text)
     m = _DURATION.match(str(text))
-    if not m or float(m.group(1)) <= 0:
-        raise ConfigError(f"not a positive duration: {text!r} (e.g. 24h, 90m, 2d)")
+    if not m or float(m.group(1)) < 0 or (float(m.group(1)) == 0 and not allow_zero):
+        kind = "duration >= 0" if allow_zero else "positive duration"
+        raise ConfigError(f"not a {kind}: {text!r} (e.g. 24h, 90m, 2d)")
     return float(m.group(1)) * _SECONDS[m.group(2)] / 3600.0
 
 

@@ -135,6 +135,22 @@ def origins(case: str | Path, *, window_h: float = WINDOW_H, horizon_h: float = 
     moved to the first row at or after it, whose window and forecast fit in the record; at most
     ``days`` of them. The forecast days must not overlap (``step_h >= horizon_h``): the sign
     test counts them as separate trials."""
+    return _starts(_hours(record_times(_toml(case))), str(case), window_h, horizon_h, step_h,
+                   start_h, days)
+
+
+def _toml(case: str | Path) -> str:
+    """The case file of ``CASE.toml+ext``."""
+    return str(case).split("+")[0]
+
+
+def _hours(times: list[str]) -> np.ndarray:
+    return seconds_between(times) / 3600.0
+
+
+def _starts(rows: np.ndarray, case: str, window_h: float, horizon_h: float, step_h: float,
+            start_h: float, days: int | None) -> list[float]:
+    """:func:`origins` on the record's row hours ``rows``."""
     for name, v in (("window", window_h), ("horizon", horizon_h), ("step", step_h)):
         if not (np.isfinite(v) and v > 0):
             raise ConfigError(f"the {name} must be positive hours, got {v!r}")
@@ -146,7 +162,6 @@ def origins(case: str | Path, *, window_h: float = WINDOW_H, horizon_h: float = 
     if days is not None and (isinstance(days, bool) or not isinstance(days, int | np.integer)
                              or days < 1):
         raise ConfigError(f"the number of windows must be an integer >= 1, got {days!r}")
-    rows = record_hours(case)
     span = float(rows[-1])
     out = []
     for a in np.arange(start_h, span - window_h - horizon_h + 1e-9, step_h):
@@ -158,11 +173,6 @@ def origins(case: str | Path, *, window_h: float = WINDOW_H, horizon_h: float = 
         raise ConfigError(f"{case}: a {window_h:g} h window and a {horizon_h:g} h forecast from "
                           f"{start_h:g} h do not fit in the {span:g} h record")
     return out
-
-
-def record_hours(case: str | Path) -> np.ndarray:
-    """Hours of every row of the case's record after its first row."""
-    return seconds_between(record_times(str(case).split("+")[0])) / 3600.0
 
 
 def _one(case: str, a: float, window_h: float, horizon_h: float, max_nfev: int):
@@ -197,19 +207,18 @@ def rolling_forecast(base: str | Path, law: str | Path, *, window_h: float = WIN
 
 
 def _rolling(base, law, window_h, horizon_h, step_h, start_h, days, max_nfev, progress) -> Rolling:
-    starts = origins(base, window_h=window_h, horizon_h=horizon_h, step_h=step_h,
-                     start_h=start_h, days=days)
-    t0 = parse_time(record_times(str(base).split("+")[0])[0]).timestamp()
+    times = record_times(_toml(base))
+    starts = _starts(_hours(times), str(base), window_h, horizon_h, step_h, start_h, days)
     # a bad case or extension, or two records, fail before any fit
     first = {"data": {"window_hours": [starts[0], starts[0] + window_h + horizon_h]}}
     mb, ml = (case_problem(c, first)[0].meas for c in (base, law))
-    same = (record_times(str(law).split("+")[0]) == record_times(str(base).split("+")[0])
-            and np.array_equal(mb.depths, ml.depths) and np.array_equal(mb.t, ml.t)
-            and np.allclose(mb.T_obs, ml.T_obs, equal_nan=True))
+    same = (record_times(_toml(law)) == times and np.array_equal(mb.depths, ml.depths)
+            and np.array_equal(mb.t, ml.t) and np.allclose(mb.T_obs, ml.T_obs, equal_nan=True))
     if not same:
         raise ConfigError(f"{base} and {law} read different records or sensors (their times or "
                           "observed temperatures differ): the two cases must be fitted to the "
                           "same data")
+    t0 = parse_time(times[0]).timestamp()
     out = None
     for i, a in enumerate(starts):
         fb, fit_b, label_b = _one(str(base), a, window_h, horizon_h, max_nfev)

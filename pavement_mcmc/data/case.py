@@ -163,6 +163,9 @@ def load_case(
             raw = tomllib.load(fh)
     except FileNotFoundError:
         raise ConfigError(f"{path}: case file not found") from None
+    except IsADirectoryError:
+        raise ConfigError(f"{path}: a directory, not a case TOML (a run directory is read by "
+                          "diagnose, compare and report, not here)") from None
     except tomllib.TOMLDecodeError as exc:
         raise ConfigError(f"{path}: invalid TOML: {exc}") from None
     if overrides:

@@ -88,7 +88,8 @@ def test_cli_writes_the_figure_and_refuses_bad_input_before_any_fit(tmp_path, ca
     assert out["days"] == api["days"] and out["p_value"] == api["p_value"]
     bad = tmp_path / "bad.png"
     for args in ([str(case), f"{case}+no_such_law"], [str(case), str(tmp_path / "none.toml")],
-                 [str(case), str(case), "--days", "0"], [str(case), str(case), "--window", "300h"]):
+                 [str(case), str(case), "--days", "0"], [str(case), str(case), "--window", "300h"],
+                 [str(tmp_path), str(case)]):  # a directory: a traceback before
         assert main(["rolling", *args, "--figure", str(bad)]) == 2
         assert not bad.exists()
 
