@@ -182,7 +182,7 @@ def next_step(rk) -> list[str]:
     elif rk.unexplained is not None:
         lines.append("Next: write the extension (template above) in a module of your own, then "
                      "pavement-mcmc diagnose <case.toml>+mymodule:MyEffect to score it")
-    if rk.best is None and rk.points_at:
+    if rk.best is None and rk.points_at and not rk.base.problem.model.replaces_h:
         lines.append("Next: one held-out day is a weak test on a field record; over a longer "
                      "record test a surface energy balance day after day: pavement-mcmc rolling "
                      "<case.toml> <case.toml>+energy_balance_window (or a case of your own with "

@@ -117,12 +117,17 @@ def test_diagnose_points_a_surface_verdict_at_the_rolling_test():
 
     from pavement_mcmc.cli.diagnose import next_step
 
-    surface = SimpleNamespace(best=None, unexplained=None,
-                              points_at={"where": "surface energy balance", "candidates": []})
+    def ranking(points_at, replaces_h=False):
+        model = SimpleNamespace(replaces_h=replaces_h)
+        return SimpleNamespace(best=None, unexplained=None, points_at=points_at,
+                               base=SimpleNamespace(problem=SimpleNamespace(model=model)))
+
+    surface = ranking({"where": "surface energy balance", "candidates": []})
     assert "pavement-mcmc rolling <case.toml> <case.toml>+energy_balance_window" in \
         " ".join(next_step(surface))
-    assert not any("rolling" in x for x in next_step(SimpleNamespace(best=None, unexplained=None,
-                                                                       points_at=None)))
+    assert not any("rolling" in x for x in next_step(ranking(None)))
+    # a model whose h(t) is already a law (energy_balance): adding another is no next step
+    assert not any("rolling" in x for x in next_step(ranking(surface.points_at, replaces_h=True)))
 
 
 def test_the_refits_run_with_one_blas_thread_whatever_the_caller_allows(tmp_path):
