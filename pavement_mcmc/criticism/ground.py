@@ -43,7 +43,7 @@ def where_acts(ext) -> str:
     if ext is None:
         return "h"
     t = type(ext)
-    if t.surface is not Extension.surface or ext.replaces_h:
+    if t.surface is not Extension.surface or ext.replaces_h or ext.skin_node:
         return "surface"
     return "material" if t.material is not Extension.material else "observe"
 

@@ -141,7 +141,8 @@ def leave_one_sensor_out(problem, start: dict[str, float] | None = None) -> Hold
     lp = []
     sd_all = problem.posterior.marginal_sd()  # sigma, or each datum's sd with noisy inputs
     for k, sp, _, nodes in _folds(problem, start):
-        i, w = interpolation_weights(sp.model.grid.x, meas.depths[k : k + 1])
+        g = sp.model.grid
+        i, w = interpolation_weights(g.x, meas.depths[k : k + 1] + g.soil_top)
         pred = interpolate(nodes[0], i, w)[:, 0]
         r = pred[1:] - meas.T_obs[1:, k]
         rmse[k] = float(np.sqrt(np.mean(r**2)))

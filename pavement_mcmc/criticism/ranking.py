@@ -285,6 +285,9 @@ def rank_missing_effects(
         if ext.replaces_h and problem.model.replaces_h:
             skipped[name] = "replaces h(t), which an extension of the model already replaces"
             continue
+        if ext.over_soil and any(e.over_soil for e in problem.model.extensions):
+            skipped[name] = "a layer over the soil, which the model already has"
+            continue
         fit = fit_extension(problem, base, name, h_spec)
         desc = type(ext).__doc__.strip().splitlines()[0] if type(ext).__doc__ else ext.name
         order = [e.name for e in fit.problem.model.extensions]

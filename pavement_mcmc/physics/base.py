@@ -56,6 +56,17 @@ class Extension:
     #: False if the criticism's ranking should try this effect only when named (a law that
     #: replaces several others, e.g. ``energy_balance``, would shadow them as a look-alike)
     candidate: bool = True
+    #: thickness (m) of a skin node this effect puts above the soil (0: none). The model then
+    #: solves on its grid with that node on top (:meth:`~pavement_mcmc.solver.Grid.with_skin`):
+    #: sensor and plate depths still count from the soil surface below it, and the effect's
+    #: ``material`` hook (run after the others) sets the skin's first cell and node
+    skin_node: float = 0.0
+
+    @property
+    def over_soil(self) -> bool:
+        """Whether the effect is a layer between the air and the soil (a skin node, or a skin
+        hook such as ``surface_layer``'s): a model takes one such layer at most."""
+        return bool(self.skin_node) or type(self).skin is not Extension.skin
 
     def parameters(self, meas) -> list[Parameter]:
         """The effect's parameters, with values at the *null* (no-effect) point where one exists."""

@@ -62,20 +62,34 @@ class Model:
         plates: bool = True,
     ):
         self.meas = meas
-        self.grid = grid
         self.h_basis = h_basis
         self.extensions: list[Extension] = [get_extension(e) for e in extensions]
         names = [e.name for e in self.extensions]
         if len(set(names)) != len(names):
             raise ValueError(f"extension listed twice: {names}")
+        layers = [e.name for e in self.extensions if e.over_soil]
+        if len(layers) > 1:
+            raise ValueError(f"two layers between the air and the soil: {layers}; list one")
+        skins = [e.name for e in self.extensions if e.skin_node]
+        if len(skins) > 1:
+            raise ValueError(f"two extensions put a skin node above the soil: {skins}")
+        if skins and meas.T_top is not None:
+            raise ValueError(f"{skins[0]} puts a skin above the soil, but a measured top has "
+                             "none: its top node is a buried sensor")
+        if skins and not grid.soil_top:  # the skin above the soil; depths count from the soil
+            grid = grid.with_skin(max(e.skin_node for e in self.extensions))
+        elif grid.soil_top and not skins:
+            raise ValueError("the grid has a skin node above the soil but no extension puts one "
+                             "there: build the model on the soil's grid")
+        self.grid = grid
         self.scheme = scheme
         self.gamma0 = gamma0
         self.top_measured = meas.T_top is not None
         self.forcing = Forcing.from_measurements(meas, grid)
-        self._obs_i, self._obs_w = interpolation_weights(grid.x, meas.depths)
+        self._obs_i, self._obs_w = interpolation_weights(grid.x, meas.depths + grid.soil_top)
         self.plates = bool(plates) and meas.n_plates > 0
         if self.plates:
-            self._flux_c, self._flux_w = flux_weights(grid.x, meas.flux_depths)
+            self._flux_c, self._flux_w = flux_weights(grid.x, meas.flux_depths + grid.soil_top)
         self._plate_names = [f"plate_{lab}" for lab in meas.plate_labels] if self.plates else []
         self.replaces_h = self.top_measured or any(e.replaces_h for e in self.extensions)
         if sum(e.replaces_h for e in self.extensions) > 1:
@@ -143,7 +157,8 @@ class Model:
                                   np.repeat(C[:, None], n, axis=1), h, q)
         else:
             coeffs = Coefficients.uniform(kappa, C, h, q, n)
-        for ext in self.extensions:
+        # a skin node's coefficients last: the soil's hooks (e.g. two_layer) set every cell
+        for ext in sorted(self.extensions, key=lambda e: bool(e.skin_node)):
             ext.material(coeffs, p, self)
         for ext in self.extensions:
             if record is not None and ext.surface_vjp is not None:

@@ -132,7 +132,7 @@ def input_jacobian(model, p: dict[str, np.ndarray], kinds=None,
     n_obs, n_s = meas.n_obs, meas.n_sensors
 
     def initial(k: int) -> np.ndarray:  # delta x the initial profile's response to reading k
-        return delta * np.interp(grid.x, depths, np.eye(depths.size)[k])
+        return delta * np.interp(np.maximum(grid.soil_x, 0.0), depths, np.eye(depths.size)[k])
 
     ref = predict(base)
     out = {}

@@ -33,6 +33,9 @@ class Grid:
     t_obs : (n_obs,) observation times, s, strictly increasing (irregular spacing allowed).
     substeps : (n_obs-1,) int, solver steps in each observation interval; the step in interval
         ``j`` is ``(t_obs[j+1] - t_obs[j]) / substeps[j]``.
+    soil_top : ``x`` of the soil surface, m: 0, or the thickness of a skin node put above the
+        soil (:meth:`with_skin`); sensor depths, the initial profile and ``L - soil_top`` (the
+        bottom sensor's depth) are measured from it.
 
     A grid whose spacings all agree with ``L / (n_nodes - 1)`` to 1e-9 (relative) is
     :attr:`uniform`; the solver then uses that nominal spacing, :attr:`dx`, for every cell.
@@ -42,6 +45,7 @@ class Grid:
     x: np.ndarray
     t_obs: np.ndarray
     substeps: np.ndarray
+    soil_top: float = 0.0
 
     def __post_init__(self) -> None:
         x = np.asarray(self.x, dtype=float)
@@ -64,6 +68,10 @@ class Grid:
         object.__setattr__(self, "t_obs", t)
         object.__setattr__(self, "substeps", n.astype(np.int64))
         object.__setattr__(self, "L", float(self.L))
+        top = float(self.soil_top)
+        if top != 0.0 and not (x.size > 2 and np.isclose(x[1], top, rtol=1e-12, atol=0.0)):
+            raise ValueError(f"Grid.soil_top={top} m must be 0 or the second node x[1]={x[1]} m")
+        object.__setattr__(self, "soil_top", top)
         object.__setattr__(self, "_uniform", bool(np.allclose(steps, nominal, rtol=1e-9, atol=0.0)))
 
     @classmethod
@@ -156,12 +164,32 @@ class Grid:
         k = int(factor)
         if k < 1 or k != factor:
             raise ValueError(f"Grid.refined: factor must be a positive integer, got {factor}")
+        if self.soil_top:
+            raise ValueError("Grid.refined: a grid with a skin node (a lumped node, not a cell to "
+                             "split); refine the soil's grid, then add the skin")
         if self._uniform:
             x = np.linspace(0.0, self.L, k * (self.x.size - 1) + 1)
         else:
             w = np.arange(k) / k
             x = np.r_[(self.x[:-1, None] + w * np.diff(self.x)[:, None]).ravel(), self.x[-1]]
         return Grid(L=self.L, x=x, t_obs=self.t_obs, substeps=k * self.substeps)
+
+    def with_skin(self, thickness: float) -> Grid:
+        """This grid below a skin node: a node at ``x = 0`` and a first cell of ``thickness``
+        (m) above the soil, whose nodes move down by it (``soil_top = thickness``, ``L`` +
+        ``thickness``). A canopy's skin (physics/catalogue/canopy.py) sits there; depths stay
+        measured from the soil surface."""
+        if self.soil_top:
+            raise ValueError("Grid.with_skin: the grid already has a skin node")
+        if not thickness > 0:
+            raise ValueError(f"Grid.with_skin: thickness must be > 0, got {thickness}")
+        return Grid(L=self.L + thickness, x=np.r_[0.0, self.x + thickness], t_obs=self.t_obs,
+                    substeps=self.substeps, soil_top=thickness)
+
+    @property
+    def soil_x(self) -> np.ndarray:
+        """(n_nodes,) depth of each node below the soil surface, m (negative for a skin node)."""
+        return self.x - self.soil_top
 
     @property
     def n_nodes(self) -> int:
@@ -379,8 +407,9 @@ class Forcing:
         and a Dirichlet top ``T_top`` where the case has a measured top
         (:meth:`~pavement_mcmc.data.Measurements.with_measured_top`: its depths, and so the
         grid's ``x``, start at the top sensor)."""
-        if not np.isclose(grid.L, meas.bottom_depth, rtol=1e-12, atol=0.0):
-            raise ValueError(f"grid.L={grid.L} m differs from bottom_depth={meas.bottom_depth} m")
+        if not np.isclose(grid.L - grid.soil_top, meas.bottom_depth, rtol=1e-12, atol=0.0):
+            raise ValueError(f"grid.L={grid.L} m (soil top at {grid.soil_top} m) differs from "
+                             f"bottom_depth={meas.bottom_depth} m")
         if grid.t_obs.shape != meas.t.shape or not np.allclose(grid.t_obs, meas.t):
             raise ValueError("grid.t_obs differs from the measurement times")
         T_air = np.asarray(meas.T_air, dtype=float)
@@ -389,6 +418,6 @@ class Forcing:
         return cls(
             T_air=T_air,
             T_bottom=np.asarray(meas.T_bottom, dtype=float),
-            T0=meas.initial_profile(grid.x),
+            T0=meas.initial_profile(np.maximum(grid.soil_x, 0.0)),
             T_top=None if meas.T_top is None else np.asarray(meas.T_top, dtype=float),
         )

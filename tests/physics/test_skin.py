@@ -58,12 +58,15 @@ def test_skin_balance_steady_state_is_the_closed_form():
 
 def test_canopy_steady_state_is_the_closed_form():
     """``canopy`` (a storing skin node joined to the soil by R_canopy) at steady state: the skin
-    is the model's top node and solves the same three equations, the soil now starting one
-    first cell (1 mm) below it; the canopy's heat capacity drops out."""
+    is a node the model puts 1 mm above the case's grid and solves the same three equations over
+    the whole soil column; the canopy's heat capacity drops out, and the 5 cm sensor is read 5 cm
+    below the soil surface, not below the skin (0.03 degC apart here)."""
     model0 = _steady_model()
     meas = model0.meas
-    grid = Grid.stretched(L, meas.t, dx_top=0.001, growth=1.08, dt=900.0, nodes_at=[0.05])
+    grid = Grid.build(meas, dx=0.005, dt=900.0)
     model = Model(meas, grid, model0.h_basis, ["energy_balance", "canopy"])
+    assert model.grid.soil_top == 0.001 and model.grid.L == pytest.approx(L + 0.001)
+    assert np.allclose(model.grid.x[1:], grid.x + 0.001)
     names = model.parameter_space().names
     base = {"kappa": P["kappa"], "C": P["C"], "eb_h0": P["eb_h0"], "eb_h1": P["eb_h1"],
             "R_canopy": P["R_surface"], "c_canopy": 8e3}
@@ -72,15 +75,28 @@ def test_canopy_steady_state_is_the_closed_form():
     T_nodes = model.solve(p)
     LE = 0.9 * priestley_taylor_weight(np.array([TA]))[0] * RN
     h, R, k = P["eb_h0"] + P["eb_h1"] * U, P["R_surface"], P["kappa"]
-    d0 = float(grid.x[1])
-    A = np.array([[h, 0.0, 1.0], [1.0, -1.0, -R], [0.0, k / (L - d0), -1.0]])
-    b = np.array([RN - LE + h * TA, 0.0, k * TB / (L - d0)])
+    A = np.array([[h, 0.0, 1.0], [1.0, -1.0, -R], [0.0, k / L, -1.0]])
+    b = np.array([RN - LE + h * TA, 0.0, k * TB / L])
     Tk_ref, T0_ref, _ = np.linalg.solve(A, b)
     assert T_nodes[0, -1, 0] == pytest.approx(Tk_ref, abs=1e-3)
     assert T_nodes[0, -1, 1] == pytest.approx(T0_ref, abs=1e-3)
-    with pytest.raises(ValueError, match="dx_top = 0.001"):
-        Model(meas, Grid.build(meas, dx=0.005, dt=900.0), model0.h_basis,
-              ["energy_balance", "canopy"]).coefficients(p)
+    sensor = T0_ref + (TB - T0_ref) * 0.05 / L
+    assert abs((T0_ref - TB) * 0.001 / L) > 0.02  # what reading 1 mm off would miss
+    assert model.predict(p)[0, -1, 0] == pytest.approx(sensor, abs=2e-3)
+
+
+def test_a_skin_grid_needs_its_skin_and_a_surface_top():
+    """A grid with a skin node is refused for a model without one, a measured top refuses the
+    canopy, and a skin grid is not refined (its lumped node is not a cell to split)."""
+    model0 = _steady_model()
+    meas, grid = model0.meas, model0.grid
+    with pytest.raises(ValueError, match="no extension puts one"):
+        Model(meas, grid.with_skin(0.001), model0.h_basis, ["energy_balance"])
+    with pytest.raises(ValueError, match="measured top"):
+        top = meas.with_measured_top()
+        Model(top, Grid.build(top, dx=0.005, dt=900.0), model0.h_basis, ["canopy"])
+    with pytest.raises(ValueError, match="refine the soil"):
+        grid.with_skin(0.001).refined(2)
 
 
 def test_canopy_stores_heat_energy_is_conserved():
@@ -103,7 +119,7 @@ def test_canopy_stores_heat_energy_is_conserved():
              "R_canopy": np.array([0.25]), "c_canopy": np.array([c])}
         coeffs = model.coefficients(p)
         T = model.solve(p)[0]
-        x = grid.x
+        x = model.grid.x
         dx = np.diff(x)
         vol = np.r_[dx[0] / 2, 0.5 * (dx[1:] + dx[:-1]), dx[-1] / 2]  # nodal control volumes
         heat = (coeffs.C[0] * vol * (T[-1] - T[0]))[:-1].sum()  # the bottom node is fixed

@@ -10,19 +10,20 @@ layer's thermal resistance :math:`R`:
       - \frac{T_k - T_0}{R}, \qquad G_\mathrm{soil} = \frac{T_k - T_0}{R},
 
 with :math:`T_k` the skin (what an infrared thermometer sees), :math:`T_0` the soil surface.
-It is built into the solver's column, which stays tridiagonal: the model's top node is the
-skin, its first cell the layer (conductivity :math:`\Delta x_0 / R`), the top node's heat
-capacity :math:`2 c_k / \Delta x_0` (its control volume is half the first cell). The soil
-surface is the second node, so the sensors' depths, measured from ``x = 0``, are off by the
-first cell's width :math:`\Delta x_0`: use a grid with a thin first cell (``[grid] dx_top =
-0.001``: 1 mm, within any sensor's installation uncertainty); wider first cells are refused.
+It is built into the solver's column, which stays tridiagonal: the model puts a skin node
+:data:`SKIN` (1 mm) above the case's grid (:meth:`~pavement_mcmc.solver.Grid.with_skin`), its
+first cell is the layer (conductivity :math:`\Delta x_0 / R`), the skin's heat capacity
+:math:`2 c_k / \Delta x_0` (its control volume is half the first cell). The soil surface is the
+second node; sensor and plate depths count from it, as they are measured, on any grid.
 
 Parameters (SI): ``R_canopy`` in m2 K W-1 (grass and thatch of 1-5 cm: about 0.05-0.5;
 bounds 0.005-2), ``c_canopy`` in J m-2 K-1 (water and biomass of a grass sward and its thatch:
 about 2-20 kJ m-2 K-1, 1 kg m-2 of water is 4.2 kJ m-2 K-1; bounds 100-1e5). With ``c_canopy``
-small it is ``surface_layer`` (a pure resistance); both may not be listed together. Listed
-with ``energy_balance`` (the H and LE laws act on the skin) and, ideally, the IR stream
-(``[data] ir_sigma``), which observes the skin and so pins ``R_canopy`` and the H law.
+small it is ``surface_layer`` (a pure resistance); a model takes one of the two. Without
+``energy_balance`` the base model's surface balance, h(t) (T_air - T_k) + q, acts on the skin:
+as such ``diagnose`` tries it (it finds the campaign's 1.5 cm thatch layers, docs/VALIDATION.md
+section 4). With ``energy_balance`` the H and LE laws act on the skin, and the IR stream
+(``[data] ir_sigma``) observes it, which pins ``R_canopy`` and the H law.
 """
 
 from __future__ import annotations
@@ -32,13 +33,14 @@ from ...parameters.priors import TruncatedNormal
 from ..base import Extension
 from ..registry import register_extension
 
-#: widest first cell (m) the canopy accepts: the soil surface then sits this deep in the model
-MAX_DX0 = 0.002
+#: thickness (m) of the skin's cell above the soil: thin, so that its conductivity dx / R and
+#: capacity 2 c / dx stand for the lumped resistance and storage
+SKIN = 0.001
 
 
 @register_extension
 class Canopy(Extension):
-    """A heat-storing canopy/thatch above the soil: the top node is its skin (module doc)."""
+    """A heat-storing canopy/thatch over the soil: a skin node 1 mm above it (module doc)."""
 
     name = "canopy"
     hint = ("the shallowest sensor's daily wave is damped and late against the net radiation, "
@@ -46,7 +48,7 @@ class Canopy(Extension):
             "stores heat and insulates the soil")
     signals = ("phase_lag", "amplitude", "corr:q_net")
     reads = ("kappa", "C")
-    candidate = False  # needs a thin first cell: tried only when named
+    skin_node = SKIN
 
     def parameters(self, meas):
         return [
@@ -60,12 +62,7 @@ class Canopy(Extension):
         return [{"R_canopy": 0.1, "c_canopy": 2e3}, {"R_canopy": 0.4, "c_canopy": 1.5e4}]
 
     def material(self, coeffs, p, model):
-        x = model.grid.x
-        dx0 = float(x[1] - x[0])
-        if dx0 > MAX_DX0 * (1 + 1e-9):
-            raise ValueError(f"canopy needs a first grid cell of at most {MAX_DX0 * 1e3:g} mm (the "
-                             f"soil surface sits that deep in the model), got {dx0 * 1e3:.3g} mm: "
-                             "set [grid] dx_top = 0.001")
+        dx0 = model.grid.soil_top
         coeffs.kappa = coeffs.kappa.copy()
         coeffs.C = coeffs.C.copy()
         coeffs.kappa[:, 0] = dx0 / p["R_canopy"]

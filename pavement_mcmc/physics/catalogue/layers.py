@@ -42,7 +42,7 @@ class TwoLayer(Extension):
         ]
 
     def material(self, coeffs, p, model):
-        x = model.grid.x
+        x = model.grid.soil_x  # depth below the soil surface (a skin node above it: < 0)
         dxc = cell_widths(x)
         d = p["d_layer"][:, None]
         # fraction of each cell [x_i, x_i+1] above the interface

@@ -37,7 +37,8 @@ class SensorDepth(Extension):
     def observe(self, pred, T_nodes, p, model):
         labels = model.meas.sensor_labels
         dz = np.stack([p[f"dz_{lab}"] for lab in labels], axis=-1)  # (n_sets, n_sensors)
-        i, w = interpolation_weights(model.grid.x, model.meas.depths[None, :] + dz)
+        i, w = interpolation_weights(model.grid.x,
+                                     model.meas.depths[None, :] + model.grid.soil_top + dz)
         shifted = interpolate(T_nodes, i, w)
         # add the depth change to what the earlier hooks made (e.g. sensor_bias), not replace it
         return pred + shifted - model.observe_nominal(T_nodes)
@@ -46,7 +47,7 @@ class SensorDepth(Extension):
         labels = model.meas.sensor_labels
         dz = np.stack([p[f"dz_{lab}"] for lab in labels], axis=-1)
         x = model.grid.x
-        i, w = interpolation_weights(x, model.meas.depths[None, :] + dz)  # (n_sets, n_sensors)
+        i, w = interpolation_weights(x, model.meas.depths[None, :] + model.grid.soil_top + dz)
         rows = np.arange(T_nodes.shape[0])[:, None]
         times = np.arange(T_nodes.shape[1])[None, :]
         gT = np.zeros(T_nodes.shape)
