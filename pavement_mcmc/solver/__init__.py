@@ -122,10 +122,9 @@ from .grid import (
     STRETCH_DX_MAX,
     STRETCH_DX_TOP,
     STRETCH_GROWTH,
-    Coefficients,
-    Forcing,
     Grid,
 )
+from .inputs import Coefficients, Forcing
 from .reference import solve_numpy
 
 __all__ = ["DEFAULT_DT", "DEFAULT_DX", "SCHEMES", "STRETCH_DT", "STRETCH_DX_MAX", "STRETCH_DX_TOP",

@@ -62,7 +62,8 @@ from collections.abc import Callable
 import numpy as np
 
 from . import forward as solver
-from .grid import Coefficients, Forcing, Grid
+from .grid import Grid
+from .inputs import Coefficients, Forcing
 from .kernels import adjoint as K
 from .kernels import adjoint_scalar as KS
 

@@ -8,7 +8,8 @@ import math
 import numba
 import numpy as np
 
-from .grid import Coefficients, Forcing, Grid
+from .grid import Grid
+from .inputs import Coefficients, Forcing
 from .kernels import cn as _kernels
 from .kernels import cn_simd as _kernels_simd
 from .kernels import dff as _kernels_dff

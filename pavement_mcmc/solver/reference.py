@@ -6,7 +6,8 @@ from __future__ import annotations
 import numpy as np
 
 from .forward import _DAMP, _N_START, _check
-from .grid import Coefficients, Forcing, Grid
+from .grid import Grid
+from .inputs import Coefficients, Forcing
 
 
 def _operator(kappa: np.ndarray, C: np.ndarray, d: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
