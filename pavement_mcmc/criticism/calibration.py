@@ -36,6 +36,15 @@ UNFLAGGED_MARGIN = 10.0
 #: the catalogue effects that act at the surface (issue 22: claimed >= 80 % together)
 SURFACE = ("wind_convection", "evaporation", "evapotranspiration", "radiation_factor",
            "conductivity_temperature")
+#: hidden effect -> the claims that find it: the twins' layer over the soil stores heat (1.5 cm
+#: of thatch, 4.5 kJ m-2 K-1), which ``canopy`` models and ``surface_layer`` (a pure resistance)
+#: approximates; either names the layer
+FOUND_AS = {"surface_layer": ("surface_layer", "canopy")}
+
+
+def found(claim: str | None, hidden: str) -> bool:
+    """Whether the claim ``claim`` names the hidden effect ``hidden`` (:data:`FOUND_AS`)."""
+    return claim is not None and claim in FOUND_AS.get(hidden, (hidden,))
 
 
 def binomial_interval(k: int, n: int, level: float = 0.95) -> tuple[float, float]:
@@ -136,7 +145,7 @@ def rates_at(records: list[dict], margin: float, insample: bool = False,
     effects = {}
     for key in sorted({row_key(r) for r in by["catalogue"]}):
         rs = [r for r in by["catalogue"] if row_key(r) == key]
-        effects[key] = _rate(sum(claim(r) == r["hidden"][0] for r in rs), len(rs))
+        effects[key] = _rate(sum(found(claim(r), r["hidden"][0]) for r in rs), len(rs))
     surf = [r for r in by["catalogue"] if row_key(r) in SURFACE]  # at their default strength
     off = by["off_catalogue"]
     return {
@@ -144,7 +153,7 @@ def rates_at(records: list[dict], margin: float, insample: bool = False,
         "false_claims": _rate(len(false), len(by["clean"])),
         "false_claim_twins": false,
         "effects": effects,
-        "surface": _rate(sum(claim(r) == r["hidden"][0] for r in surf), len(surf)),
+        "surface": _rate(sum(found(claim(r), r["hidden"][0]) for r in surf), len(surf)),
         "off_no_claim": _rate(sum(claim(r) is None for r in off), len(off)),
         "off_claims": {r["twin"]: claim(r) for r in off
                        if claim(r) is not None},

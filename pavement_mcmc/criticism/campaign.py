@@ -29,7 +29,7 @@ from ..data import load_case
 from ..physics.hbasis import FINER_H
 from ..posterior import build_problem
 from ..synthetic.corpus import forecast_twins, write_twin
-from .calibration import row_key
+from .calibration import found, row_key
 from .fitting import refit
 from .forecast import (
     default_origins,
@@ -303,7 +303,7 @@ def rates(records: list[dict]) -> dict:
     for key in sorted({row_key(r) for r in cat}):
         rs = [r for r in cat if row_key(r) == key]
         per_effect[key] = {
-            "first": sum(r["claimed"] == r["hidden"][0] for r in rs),
+            "first": sum(found(r["claimed"], r["hidden"][0]) for r in rs),
             "n": len(rs),
             "rmse_ratio": [round(r.get("rmse_ratio", float("nan")), 3) for r in rs],
         }

@@ -100,9 +100,10 @@ def test_an_evaporation_pulse_is_claimed_by_its_forecast(tmp_path):
 
 #: catalogue effects claimed on fewer than 7 of 10 campaign twins (docs/VALIDATION.md §4): the
 #: first three are confounded with kappa, C and a free h(t) under loose priors; the per-sensor
-#: ones and surface_layer gain little when the unknown future h dominates the forecast error
+#: ones gain little when the unknown future h dominates the forecast error. (surface_layer left
+#: the set when canopy, a layer that stores heat, became a candidate: 16 of 20.)
 KNOWN_MISSES = {"radiation_factor", "evapotranspiration", "conductivity_temperature",
-                "surface_layer", "sensor_bias", "sensor_depth"}
+                "sensor_bias", "sensor_depth"}
 
 
 @pytest.mark.slow
