@@ -336,15 +336,20 @@ def test_hmc_agrees_with_the_random_walk_block_sampler_case_c():
 
 def test_criticism_campaign(tmp_path):
     """Issue 14's numbers on our own twins (independent simulator, inversion settings it does not
-    share): the false-alarm rate on 24 clean twins (4 h shapes x Case A / hourly / Case C forms x
-    loose / tight priors, input noise on and off, each its own seed) must stay <= 1/20; the
-    true-effect-first rate and refit RMSE ratio per catalogue effect are printed; on 9
-    off-catalogue twins "none of these" must be the answer in >= 2/3 with no confident claim."""
+    share), with ``diagnose``'s default rule (the forecast gain, issue 22): the false-alarm rate
+    on 24 clean twins (4 h shapes x Case A / hourly / Case C forms x loose / tight priors, input
+    noise on and off, each its own seed) must stay <= 1/20; the true-effect-first rate and refit
+    RMSE ratio per catalogue effect are printed; on the 12 off-catalogue twins (sensor lag,
+    shading, a buried source, a sun-warmed surface sensor) "none of these" must be the answer in
+    >= 2/3 with no confident claim. (With the in-sample rule, ``--no-forecast``, the three
+    sun-warmed sensors are claimed as two_layer or sensor_depth: why the forecast rule is the
+    default, docs/VALIDATION.md section 4.)"""
     from pavement_mcmc.criticism.campaign import diagnose_twins, rates
     from pavement_mcmc.synthetic.corpus import catalogue_twins, clean_twins, off_catalogue_twins
 
     warnings.simplefilter("ignore")
-    records = diagnose_twins(clean_twins() + catalogue_twins() + off_catalogue_twins(), tmp_path)
+    records = diagnose_twins(clean_twins() + catalogue_twins() + off_catalogue_twins(), tmp_path,
+                             forecast=True)
     r = rates(records)
     fa, n = r["false_alarm"]
     print(f"CRITICISM false-alarm rate on clean twins: {fa}/{n} {r['false_alarm_twins']}")
