@@ -23,10 +23,10 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from ..data import load_case, merge_overrides
-from ..physics import Extension
 from ..physics.materials import check_values, declared_material
 from ..posterior import build_problem
 from .fitting import refit
+from .ground import GROUND_HOOKS, where_acts
 
 #: shares of the net radiation that reach the ground at midday, by surface (Oke 1987, ch. 2-4)
 MIDDAY_SHARE = {"grass or crop": (0.05, 0.2), "bare soil": (0.2, 0.4), "pavement": (0.3, 0.6)}
@@ -140,8 +140,7 @@ def _top_fit(problem) -> dict | None:
     raw = copy.deepcopy(top_cfg.raw)
     raw["data"].pop("ir_sigma", None)  # the IR sees the surface: none under a measured top
     top_cfg = replace(top_cfg, raw=raw)
-    exts = [e for e in problem.model.extensions
-            if type(e).surface is Extension.surface and not e.replaces_h]
+    exts = [e for e in problem.model.extensions if where_acts(e) in GROUND_HOOKS]
     pb = build_problem(top_cfg, extensions=exts)
     f = refit(pb).values()
     return {"kappa": f["kappa"], "C": f["C"], "diffusivity": f["kappa"] / f["C"],

@@ -71,3 +71,19 @@ def test_the_measured_top_fit_of_a_case_that_observes_the_infrared_surface(tmp_p
     assert pb.posterior.stream("surface_ir") is not None
     eb = energy_balance(pb, refit(pb).values())
     assert eb.top is not None and 0.2e-6 < eb.top["diffusivity"] < 2e-6
+
+
+def test_the_measured_top_fit_of_a_canopy_model_leaves_the_canopy_out(tmp_path):
+    """A model with ``canopy`` (a skin node over the soil) and a plate: the energy check's
+    measured-top fit has no skin, so it leaves the canopy out, as it leaves the surface hooks
+    out. It raised "canopy puts a skin above the soil, but a measured top has none" once the
+    skin became a node above the soil, and `diagnose runs/grass_energy.toml` stopped there.
+    The measured-top fit of the thatch twin recovers its diffusivity (true 1.2 / 2.6 MJ)."""
+    twin = get_twin("field-thatch-s203")
+    cfg = load_case(write_twin(twin, tmp_path / "canopy"), FAST,
+                    additions={"model": {"extensions": ["canopy"]}})
+    pb = build_problem(cfg)
+    assert [e.name for e in pb.model.extensions] == ["canopy"] and pb.model.plates
+    eb = energy_balance(pb, refit(pb).values())
+    assert eb.top is not None and eb.top["from_plate"]
+    assert eb.top["diffusivity"] == pytest.approx(twin.spec.kappa / twin.spec.C, rel=0.1)

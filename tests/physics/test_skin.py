@@ -85,6 +85,22 @@ def test_canopy_steady_state_is_the_closed_form():
     assert model.predict(p)[0, -1, 0] == pytest.approx(sensor, abs=2e-3)
 
 
+def test_the_canopy_s_heat_is_on_the_skin_and_the_soil_s_in_the_soil():
+    """The skin node stores c_canopy per m2 and the soil top only its soil half-cell: the 1 mm
+    skin cell's lower half is not soil (it stored C x 0.5 mm, 1.2 kJ m-2 K-1 at C 2.4 MJ, a
+    quarter of a thin thatch's 4.5 kJ)."""
+    model0 = _steady_model()
+    model = Model(model0.meas, model0.grid, model0.h_basis, ["energy_balance", "canopy"])
+    p = {"kappa": np.array([1.1]), "C": np.array([2.4e6]), "R_canopy": np.array([0.25]),
+         "c_canopy": np.array([4.5e3]), "eb_h0": np.array([4.0]), "eb_h1": np.array([3.0])}
+    p |= {n: np.array([0.9]) for n in model.parameter_space().names if n.startswith("eb_alpha_")}
+    coeffs = model.coefficients(p)
+    vol = model.grid.volumes
+    assert coeffs.C[0, 0] * vol[0] == pytest.approx(4.5e3)
+    assert coeffs.C[0, 1] * vol[1] == pytest.approx(2.4e6 * model0.grid.dx_cells[0] / 2)
+    assert coeffs.C[0, 2] == 2.4e6
+
+
 def test_a_skin_grid_needs_its_skin_and_a_surface_top():
     """A grid with a skin node is refused for a model without one, a measured top refuses the
     canopy, and a skin grid is not refined (its lumped node is not a cell to split)."""

@@ -62,8 +62,12 @@ class Canopy(Extension):
         return [{"R_canopy": 0.1, "c_canopy": 2e3}, {"R_canopy": 0.4, "c_canopy": 1.5e4}]
 
     def material(self, coeffs, p, model):
-        dx0 = model.grid.soil_top
+        x = model.grid.x
+        dx0, dx1 = model.grid.soil_top, float(x[2] - x[1])
         coeffs.kappa = coeffs.kappa.copy()
         coeffs.C = coeffs.C.copy()
         coeffs.kappa[:, 0] = dx0 / p["R_canopy"]
         coeffs.C[:, 0] = 2.0 * p["c_canopy"] / dx0
+        # the soil top's control volume reaches half the skin cell up: only its soil half
+        # (dx1 / 2) stores soil heat, the canopy's storage is all on the skin
+        coeffs.C[:, 1] *= dx1 / (dx0 + dx1)
