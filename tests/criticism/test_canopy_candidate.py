@@ -32,7 +32,7 @@ def _canopy(tmp_path, effects, seed):
 
 def test_canopy_finds_the_layer_of_a_surface_layer_twin(tmp_path):
     """The layer's resistance is recovered (measured 0.19 against the true 0.25) with a heat
-    capacity of the thatch's order (3.5 kJ against 4.5), and the forecast gains past the
+    capacity of the thatch's order (3.6 kJ against 4.5), and the forecast gains past the
     claim margin (measured F 32)."""
     F, v = _canopy(tmp_path, ("surface_layer",), 3700)
     assert F > FORECAST_THRESHOLD, (F, v)
@@ -42,7 +42,7 @@ def test_canopy_finds_the_layer_of_a_surface_layer_twin(tmp_path):
 
 def test_canopy_on_a_clean_twin_has_no_layer_and_no_gain(tmp_path):
     """No layer: the resistance goes to its lower bound and the forecast does not gain
-    (measured F 1.8)."""
+    (measured F 1.5)."""
     F, v = _canopy(tmp_path, (), 3600)
     assert F < FORECAST_THRESHOLD, (F, v)
     assert v["R_canopy"] < 0.05, v
