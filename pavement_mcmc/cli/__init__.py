@@ -83,9 +83,31 @@ _PACKAGE_DIR = str(Path(__file__).resolve().parents[1])
 _DISK_ERRORS = {errno.ENOSPC, errno.EDQUOT, errno.EFBIG, errno.EIO}
 
 
+def _split_sets(argv: list[str]) -> list[str]:
+    """``--set a=1 b=2 case.toml`` -> ``--set=a=1 --set=b=2 case.toml``: argparse's ``nargs='+'``
+    would take the case file as one more assignment; an assignment always has a ``=``."""
+    out: list[str] = []
+    it = iter(argv)
+    for tok in it:
+        if tok != "--set":
+            out.append(tok)
+            continue
+        items = []
+        for nxt in it:
+            if "=" in nxt and not nxt.startswith("-"):
+                items.append(nxt)
+                continue
+            out += [f"--set={x}" for x in items] if items else ["--set"]
+            out.append(nxt)
+            break
+        else:
+            out += [f"--set={x}" for x in items] if items else ["--set"]
+    return out
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = build_parser()
-    args = parser.parse_args(argv)
+    args = parser.parse_args(_split_sets(sys.argv[1:] if argv is None else list(argv)))
     if hasattr(signal, "SIGXFSZ"):  # over `ulimit -f`: a write error (EFBIG), not a core dump
         signal.signal(signal.SIGXFSZ, signal.SIG_IGN)
     from ..runs.threads import single_blas_thread

@@ -54,8 +54,10 @@ def add_set_option(p: argparse.ArgumentParser) -> None:
     (``grid.dx=0.0025``) overrides the case config instead."""
     p.add_argument(
         "--set", dest="assign", nargs="+", action="extend", default=[], metavar="NAME=VALUE",
-        help="parameter values, e.g. kappa=1.3 C=1.0e6 h=10 (h sets every h piece); dotted keys "
-             "such as grid.dx=0.0025 override the case config",
+        help="parameter values, e.g. kappa=1.3 C=1.0e6 h=10 (h sets every h piece; for a fit "
+             "these are start values, the priors still apply: fix one with "
+             "parameters.kappa.vary=false parameters.kappa.value=1.3); dotted keys such as "
+             "grid.dx=0.0025 override the case config",
     )
 
 

@@ -55,6 +55,10 @@ def run(args) -> int:
 
             g = rmse_vs_map(label, analyse_point(problem, values).rmse, refit(problem, values).rmse)
             guards += [g] if g is not None else []
+    from ..criticism.guards import same_data
+
+    g = same_data([(label, problem) for label, problem, _ in runs])
+    guards += [g] if g is not None else []
     led = ledger(runs, holdout=not args.no_holdout, forecast=not args.no_forecast)
     first = Path(args.runs[0])
     fig_path = (

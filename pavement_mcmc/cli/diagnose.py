@@ -215,7 +215,8 @@ def run(args) -> int:
     refuse = [g for g in guards if g.level == "refuse"]
     if refuse and not args.force:
         for g in refuse:
-            print(f"error: {g.text}; refusing to diagnose it (--force to do it anyway)", file=sys.stderr)
+            print(f"pavement-mcmc diagnose: error: {g.text}; refusing to diagnose it (--force to "
+                  "do it anyway)", file=sys.stderr)
         return 2
     problem, values, how, label = load_point(args.run, "median" if args.median else "mean")
     dx = diagnose(problem, values, rank=not args.no_rank, candidates=args.only,

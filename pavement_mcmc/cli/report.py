@@ -36,5 +36,14 @@ def refresh(run, out=None, burn_in=None, dpi: int = 80, draws: int = 100) -> str
 
 
 def run(args) -> int:
+    from pathlib import Path
+
+    from ..data import UserError
+
+    if args.out is not None and not Path(args.out).resolve().parent.is_dir():
+        raise UserError(f"--out {args.out}: no folder {Path(args.out).resolve().parent} to write "
+                        "the report into")
+    if args.draws < 1 or args.dpi < 10:
+        raise UserError(f"--draws must be >= 1 and --dpi >= 10, got {args.draws} and {args.dpi}")
     print(refresh(args.run, args.out, args.burn_in, args.dpi, args.draws))
     return 0

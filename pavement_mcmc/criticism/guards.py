@@ -9,6 +9,7 @@ run (unless forced) and prints the others loudly. Numbers and words only; nothin
 
 from __future__ import annotations
 
+import hashlib
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -39,6 +40,11 @@ def check_run(run_dir: str | Path) -> list[Guard]:
 
     folder = RunFolder(run_dir)
     run_dir = folder.path
+    if not folder.contents():
+        from ..data import RunNotFound
+
+        raise RunNotFound(f"{run_dir}: not a run directory (no case.toml, no chain.h5); give the "
+                          "--out folder of 'pavement-mcmc fit'")
     out: list[Guard] = []
     res = folder.read_result()
     if res is None:
@@ -134,3 +140,27 @@ def rmse_vs_map(label: str, rmse_sampled: float, rmse_map: float, rel: float = 1
     return Guard("warn", "map_vs_sampled", f"{label}: RMSE {rmse_sampled:.3f} °C at the posterior mean "
                  f"against {rmse_map:.3f} °C at the MAP of the same model: the chain is not at the "
                  "mode (stuck at a bound or unconverged); resume or refit before comparing")
+
+
+def _sensor_hash(meas) -> str:
+    """What a comparison scores: the times, the buried sensors' depths and readings, sigma."""
+    h = hashlib.sha256()
+    for arr in (meas.t, meas.depths, meas.T_obs):
+        h.update(np.ascontiguousarray(arr, dtype=np.float64).tobytes())
+    h.update(repr(float(meas.sigma)).encode())
+    return h.hexdigest()
+
+
+def same_data(runs: list[tuple[str, object]]) -> Guard | None:
+    """``(label, problem)`` of the runs a comparison ranks: a warning when they were not fitted
+    to the same sensor data (another window, file, sensor set or sigma), whose errors do not
+    compare. Other streams (a plate, the infrared temperature) may differ: they are not scored."""
+    hashes = [_sensor_hash(pb.meas) for _, pb in runs]
+    if len(set(hashes)) <= 1:
+        return None
+    first = runs[0][0]
+    other = [f"{lab} (#{i + 1})" for i, ((lab, _), h) in enumerate(zip(runs, hashes, strict=True))
+             if h != hashes[0]]
+    return Guard("warn", "data", f"{', '.join(other)} {'was' if len(other) == 1 else 'were'} "
+                 f"fitted to other data than {first} (#1; another window, file, sensors or sigma): "
+                 "their errors and scores do not compare")

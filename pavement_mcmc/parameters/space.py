@@ -243,6 +243,9 @@ class ParameterSpace:
                 raise ValueError(
                     f"[parameters.{key}] must be a table with keys among {sorted(_KEYS)}, got {spec!r}"
                 )
+            if spec.get("vary") is False and "value" not in spec:
+                raise ValueError(f"[parameters.{key}] vary = false needs a value: the value to "
+                                 "fix it at (its default is not the case's)")
         new = dict(self.params)
         for level in ("group", "name"):
             for key, spec in section.items():
@@ -252,6 +255,11 @@ class ParameterSpace:
                 for n, p in new.items():
                     if n == key or (is_group and p.group == key):
                         new[n] = _apply(p, spec)
+        for key, spec in section.items():
+            if "value" in spec:
+                for n, p in new.items():
+                    if n == key or (key in groups and key not in self.params and p.group == key):
+                        _check_bounds(p, p.value, f"[parameters.{key}] value")
         return ParameterSpace(list(new.values()), self.joint_priors)
 
 
@@ -289,6 +297,8 @@ def parameter_values(space, overrides: Mapping[str, float] | None = None) -> dic
             raise ValueError(f"unknown parameter {key!r}; valid: {', '.join(shown)}")
         if not np.isfinite(float(v)):
             raise ValueError(f"parameter {key!r}: value {v!r} is not a finite number")
+        for n in groups.get(key, [key]) if key not in values else [key]:
+            _check_bounds(space[n], float(v), key)
     for level_group in (True, False):
         for key, v in overrides.items():
             is_group = key in groups and key not in values
@@ -297,6 +307,13 @@ def parameter_values(space, overrides: Mapping[str, float] | None = None) -> dic
             for n in groups[key] if is_group else [key]:
                 values[n] = float(v)
     return values
+
+
+def _check_bounds(p: Parameter, v: float, what: str) -> None:
+    """A value outside a parameter's bounds has zero posterior density: refuse it."""
+    if not p.lower <= v <= p.upper:
+        raise ValueError(f"{what}: {v:g} is outside {p.name}'s bounds [{p.lower:g}, {p.upper:g}]"
+                         + (f" ({p.unit})" if p.unit and p.unit != "-" else ""))
 
 
 def _apply(p: Parameter, spec: dict) -> Parameter:

@@ -49,6 +49,12 @@ class HBasis:
         a, b = t_obs[:-1, None], t_obs[1:, None]
         overlap = np.clip(np.minimum(b, e[None, 1:]) - np.maximum(a, e[None, :-1]), 0, None)
         W = overlap / (b - a)
+        empty = np.flatnonzero(W.sum(axis=0) == 0)
+        if empty.size:
+            k = int(empty[0])
+            raise ValueError(f"h piece h_{k + 1} ({e[k] / 3600:g}-{e[k + 1] / 3600:g} h) holds no "
+                             f"observation interval of the data window [0, {t_obs[-1] / 3600:g}] "
+                             "h: nothing could estimate it; give edges within the window")
         names = tuple(f"h_{k + 1}" for k in range(e.size - 1))
         return cls(names, e, W, smooth)
 

@@ -18,7 +18,7 @@ from .chains import (
     plot_segments,
 )
 from .energy import plot_energy_balance
-from .fit import plot_fit
+from .fit import plot_fit, plot_streams
 from .physics import plot_fluxes, plot_h, plot_identifiability, plot_sensitivity, plot_urban
 from .posterior import plot_corner
 
@@ -40,5 +40,6 @@ __all__ = [
     "plot_segments",
     "plot_season",
     "plot_sensitivity",
+    "plot_streams",
     "plot_urban",
 ]

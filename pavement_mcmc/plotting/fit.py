@@ -17,7 +17,7 @@ def plot_fit(
     literature: np.ndarray | None = None,
     label: str = "predicted",
     band_label: str = "95 % posterior predictive",
-    literature_label: str = "literature values (κ 2.27, C 2.10 MJ, h 10)",
+    literature_label: str = "the paper's literature values (κ 2.27, C 2.10 MJ, h 10)",
     ncol: int = 3,
     fig: Figure | None = None,
 ) -> Figure:
@@ -88,6 +88,51 @@ def plot_fit(
         lax.legend(*handles, loc="center", fontsize=9, title=f"{meas.n_sensors} sensors")
     else:
         fig.axes[0].legend(*handles, fontsize=7, loc="upper left")
+    return fig
+
+
+def plot_streams(
+    t_obs: np.ndarray,
+    panels: list[tuple[str, str, np.ndarray, np.ndarray]],
+    level: float = 95.0,
+    fig: Figure | None = None,
+) -> Figure:
+    """Observations other than the buried sensors (heat-flux plates, an infrared surface
+    temperature): measured against the posterior predictive, one column per quantity,
+    residuals (measured minus predicted, as in :func:`plot_fit`) beneath.
+
+    Parameters
+    ----------
+    t_obs : (n_obs,) observation times, s.
+    panels : ``(title, unit, observed, predicted)`` per quantity: ``observed`` (n_obs - 1,) after
+        the initial row, ``predicted`` (n_draws, n_obs) posterior draws of the model's value.
+    level : credible level of the band, %.
+    """
+    t = hours(t_obs)
+    n = len(panels)
+    fig = new_figure(fig, (4.8 * n, 5.0))
+    gs = fig.add_gridspec(2, n, height_ratios=[3, 1.4])
+    q = [50 - level / 2, 50, 50 + level / 2]
+    for j, (title, unit, obs, pred) in enumerate(panels):
+        col = f"C{j + 1}"
+        lo, med, hi = np.percentile(np.atleast_2d(pred), q, axis=0)
+        ax = fig.add_subplot(gs[0, j])
+        axr = fig.add_subplot(gs[1, j], sharex=ax)
+        ax.fill_between(t, lo, hi, color=col, alpha=0.35, lw=0,
+                        label=f"{level:g} % posterior predictive")
+        ax.plot(t[1:], obs, ".", ms=3, color="k", label="measured")
+        ax.plot(t, med, color=col, lw=1.4, label="posterior predictive median")
+        ax.set_title(title)
+        ax.set_ylabel(f"{title} ({unit})")
+        ax.tick_params(labelbottom=False)
+        ax.legend(fontsize=7, loc="upper left", framealpha=0.6)
+        res = obs - med[1:]
+        axr.axhline(0, color="0.5", lw=0.8)
+        axr.plot(t[1:], res, ".", ms=3, color=col,
+                 label=f"RMSE {float(np.sqrt(np.mean(res * res))):.3g} {unit}")
+        axr.set_xlabel(time_label())
+        axr.set_ylabel(f"meas. − pred. ({unit})")
+        axr.legend(fontsize=6.5, loc="upper right", framealpha=0.6)
     return fig
 
 

@@ -56,6 +56,8 @@ class Observation:
     """
 
     name = "observation"
+    #: what it measures and its unit, for figures
+    quantity, unit = "observation", ""
     labels: list[str] = []
     data: np.ndarray
 
@@ -116,6 +118,7 @@ class Temperatures(Observation):
     noisy inputs' Jacobian is known)."""
 
     name = "temperatures"
+    quantity, unit = "temperature", "°C"
 
     def __init__(self, meas):
         self.data = meas.T_obs[1:]
@@ -210,6 +213,7 @@ class Plates(Observation):
     independent errors of sd ``flux_sd`` per reading (:func:`default_flux_sd`)."""
 
     name = "plates"
+    quantity, unit = "heat-flux plate", "W m⁻²"
 
     def __init__(self, meas, flux_sd: np.ndarray | None = None):
         self.data = meas.G_obs[1:]

@@ -46,6 +46,7 @@ class SurfaceIR(Observation):
 
     name = "surface_ir"
     labels = ["IR"]
+    quantity, unit = "infrared surface temperature", "°C"
 
     def __init__(self, meas, sigma: float):
         if COLUMN not in meas.extras:

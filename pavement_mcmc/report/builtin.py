@@ -7,8 +7,12 @@ from collections.abc import Callable
 
 import numpy as np
 
+from ..physics.materials import declared_material
 from ..runs.view import RunView
 from .markup import _fmt, _img
+
+#: materials the paper's literature values (kappa 2.27, C 2.10 MJ, h 10) stand for
+PAVEMENTS = ("asphalt", "concrete")
 
 
 def _lags(kept: np.ndarray, tau: float, thin: int) -> int:
@@ -67,9 +71,13 @@ def _figures(view: RunView, n_draws: int) -> list[tuple[str, Callable, str]]:
     truths = view.truths()
     a = view.assessment
 
+    # the paper's literature values are a pavement's: not drawn over a declared ground
+    paper_ground = declared_material(pb) in (None, *PAVEMENTS)
+
     def fit():
         pr = view.predictive(n_draws)
-        return pl.plot_fit(meas, pr.median, band=pr.band(), literature=view.literature(),
+        return pl.plot_fit(meas, pr.median, band=pr.band(),
+                           literature=view.literature() if paper_ground else None,
                            label="posterior predictive median")
 
     def h_plot():
@@ -81,6 +89,12 @@ def _figures(view: RunView, n_draws: int) -> list[tuple[str, Callable, str]]:
         h_obs = np.concatenate([pr.h[:, :1], pr.h], axis=1)
         dT = meas.T_air[None, :] - pr.T_surface
         return pl.plot_fluxes(meas.t, h_obs * dT, meas.q_net, dT)
+
+    def streams():
+        pr = view.predictive(n_draws)
+        return pl.plot_streams(meas.t, [
+            (f"{st.quantity} {lab}", st.unit, st.data[:, k], pred[:, :, k])
+            for st, pred in pr.others for k, lab in enumerate(st.labels)])
 
     def sens():
         mean = dict(zip(names, view.flat.mean(axis=0)))
@@ -94,14 +108,24 @@ def _figures(view: RunView, n_draws: int) -> list[tuple[str, Callable, str]]:
     figs = [
         ("Measured vs predicted temperatures", fit,
          f"Posterior predictive median and 95 % band from {n_draws} posterior draws solved in "
-         "one batch; grey: ± σ; dashed: the literature values. Residuals are measured minus "
-         "predicted."),
-        ("Surface heat transfer coefficient h(t)", h_plot,
-         "Posterior mean and 95 % credible band, with the measured wind (right axis) and the "
-         "truth where the case ships it."),
-        ("Surface fluxes", fluxes,
-         "Convective flux h (T_air − T_s) with its band, the measured net radiation, and the "
-         "modelled T_air − T_s."),
+         "one batch; grey: ± σ" + ("; dashed: the paper's literature values for its pavement"
+                                  if paper_ground else "")
+         + ". Residuals are measured minus predicted."),
+    ]
+    if not pb.model.top_measured:
+        figs.append(("Surface heat transfer coefficient h(t)", h_plot,
+                     "Posterior mean and 95 % credible band, with the measured wind (right "
+                     "axis) and the truth where the case ships it."))
+    if pb.posterior.streams[1:]:
+        figs.append(("Heat-flux plates and infrared temperature", streams,
+                     "The other observations beside the buried sensors, measured against the "
+                     f"posterior predictive of {n_draws} draws (a plate's prediction includes "
+                     "its calibration factor, the infrared one its offset)."))
+    if not pb.model.replaces_h:  # an energy balance or a measured top has its own fluxes
+        figs.append(("Surface fluxes", fluxes,
+                     "Convective flux h (T_air − T_s) with its band, the measured net radiation, "
+                     "and the modelled T_air − T_s."))
+    figs += [
         ("Corner plot", lambda: pl.plot_corner(thin_flat, names, subset, truths),
          "Posterior after burn-in (dashed lines: 2.5, 50, 97.5 %); red: truth."),
         ("Markov chains", lambda: pl.plot_chains(view.run.chain[::thin], names,

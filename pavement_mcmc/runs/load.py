@@ -7,7 +7,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..data import RunNotFound, load_case
+from ..data import RunError, RunNotFound, load_case
 from ..posterior import Problem, build_problem
 from ..storage import RunData, read_run
 from .folder import RunFolder
@@ -35,6 +35,11 @@ def load_kept(run_dir: str | Path, burn_in: int | None = None) -> tuple[Problem,
                           "folder of 'pavement-mcmc fit'")
     cfg = load_case(folder.case)
     data = read_run(folder.chain)
+    stored = data.meta.get("data_hash")
+    if stored and stored != cfg.measurements.data_hash():
+        files = " or ".join(str(f) for f in (cfg.csv_path, cfg.extras_path) if f is not None)
+        raise RunError(f"{folder.path}: the data changed since this run was fitted ({files} "
+                       "is not what was sampled): restore it, or fit the case again")
     problem = build_problem(cfg, input_noise=data.meta.get("input_ref"))
     data.meta["result"] = folder.read_result() or {}
     kept = keep(data, data.meta["result"], cfg.sampler, burn_in)

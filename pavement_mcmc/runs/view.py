@@ -29,12 +29,15 @@ class Predictive:
     pred : (n, n_obs, n_sensors) predicted sensor temperatures, degC.
     T_surface : (n, n_obs) modelled surface temperature, degC.
     h : (n, n_obs - 1) h on each observation interval, W m-2 K-1.
+    others : ``(stream, prediction)`` of every observation stream after the sensors' (heat-flux
+        plates, the infrared temperature), each prediction (n, n_obs, n_cols) in its unit.
     """
 
     theta: np.ndarray
     pred: np.ndarray
     T_surface: np.ndarray
     h: np.ndarray
+    others: tuple = ()
 
     @property
     def median(self) -> np.ndarray:
@@ -52,8 +55,9 @@ def predictive(problem, theta: np.ndarray) -> Predictive:
     p = problem.space.expand(theta)
     model = problem.model
     nodes = model.solve(p)
-    h = model.coefficients(p).h
-    return Predictive(theta, model.observe(nodes, p), nodes[..., 0], np.asarray(h))
+    coeffs = model.coefficients(p)
+    others = tuple((s, s.predict(model, nodes, coeffs, p)) for s in problem.posterior.streams[1:])
+    return Predictive(theta, model.observe(nodes, p), nodes[..., 0], np.asarray(coeffs.h), others)
 
 
 @dataclass
@@ -148,6 +152,9 @@ class RunView:
         over = {k: v for k, v in LITERATURE.items() if k in space}
         if any(p.group == "h" for p in space.params.values()):
             over["h"] = LITERATURE["h"]
+        members = {k: [p for p in space.params.values() if p.name == k or p.group == k] for k in over}
+        over = {k: v for k, v in over.items()  # a case's bounds may exclude the paper's values
+                if all(p.lower <= v <= p.upper for p in members[k])}
         vals = parameter_values(space, over)
         return self.problem.model.predict({k: np.array([v]) for k, v in vals.items()})[0]
 

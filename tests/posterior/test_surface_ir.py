@@ -92,7 +92,8 @@ def test_fit_recovers_the_ir_offset(tmp_path):
     rmse_ir = pb.posterior.loglik_blobs(lap.theta[None])[1][0, -1]
     assert rmse_ir < 1.5 * IR_SD
     # without the offset (fixed at 0) the IR stream is fitted much worse
-    fixed = build_problem(load_case(_twin(tmp_path), {"parameters": {"ir_offset": {"vary": False}}}))
+    fixed = build_problem(load_case(_twin(tmp_path),
+                                    {"parameters": {"ir_offset": {"vary": False, "value": 0.0}}}))
     lap0 = find_map(fixed.posterior)
     assert fixed.posterior.loglik_blobs(lap0.theta[None])[1][0, -1] > 3 * rmse_ir
 
