@@ -41,6 +41,7 @@ from ..diagnostics.assessment import chains_note
 from ..diagnostics.stopping import StoppingRule
 from ..runs.tables import plausibility
 from ..runs.view import RunView
+from ..storage import write_atomic
 from .builtin import _diag_table, _figures, _stats_table, _urban_section
 from .markup import _CSS, _img, figure_to_base64, section_error  # noqa: F401  (figure_to_base64)
 from .sections import SectionBuilder, register_section, registered_sections, unregister_section
@@ -79,7 +80,7 @@ def build_report(view: RunView, out: str | Path | None = None, dpi: int = 80,
     ``<run>/report.html``)."""
     out = Path(out) if out else view.folder.report
     doc = render(view, registered_sections(), dpi=dpi, n_draws=n_draws)
-    out.write_text(doc, encoding="utf-8")
+    write_atomic(out, doc)
     return out
 
 

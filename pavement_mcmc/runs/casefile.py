@@ -8,6 +8,7 @@ from pathlib import Path
 
 from ..data import dump_config
 from ..data.toml_writer import to_toml
+from ..storage import write_atomic
 from .folder import RunFolder
 
 #: [sampler] keys that may change between a run and its resume (budgets, not the chain)
@@ -40,8 +41,8 @@ def write_case_record(cfg, run_dir: Path, overrides: dict, additions: dict, rule
         raw["data"]["truth"] = str(cfg.truth_path)
     if getattr(cfg, "extras_path", None) is not None:
         raw["data"]["extras"] = str(cfg.extras_path)
-    folder.case.write_text(
-        f"# case as run, from {cfg.path}; data paths made absolute\n" + to_toml(raw))
+    write_atomic(
+        folder.case, f"# case as run, from {cfg.path}; data paths made absolute\n" + to_toml(raw))
     rec = json.loads(dump_config(cfg))
     rec["overrides"], rec["additions"], rec["rule"] = overrides, additions, rule.to_dict()
     folder.write_config(rec)

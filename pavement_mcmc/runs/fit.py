@@ -7,6 +7,7 @@ never re-run a sampler.
 
 from __future__ import annotations
 
+import errno
 import secrets
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
@@ -22,7 +23,7 @@ from .folder import RunFolder, case_rule
 from .kept import keep
 from .loop import RunResult, run_sampler
 from .start import map_start, resolve_finer_h
-from .tables import plausibility, statistics_table, write_plausibility, write_table
+from .tables import plausibility, statistics_table, write_table
 from .threads import single_blas_thread
 
 
@@ -57,7 +58,7 @@ def _sampler_for(problem: Problem, cfg):
 
 
 def _run(problem, sampler, store, scfg, callback, max_seconds,
-         min_steps: int = 0, base_rule=None) -> RunResult:
+         min_steps: int = 0, base_rule=None, check_due: bool = True) -> RunResult:
     """Run the loop; ``base_rule``: the rule stored with a resumed run (its ESS target is the
     case's as resumed), default :class:`~pavement_mcmc.diagnostics.StoppingRule`'s defaults."""
     return run_sampler(
@@ -65,7 +66,7 @@ def _run(problem, sampler, store, scfg, callback, max_seconds,
         rule=case_rule(scfg, base_rule), max_steps=int(scfg["max_steps"]),
         max_seconds=max_seconds if max_seconds is not None else scfg.get("max_seconds"),
         burn_in=scfg.get("burn_in"), thin=int(scfg.get("thin") or 1),
-        callback=callback, min_steps=min_steps,
+        callback=callback, min_steps=min_steps, check_due=check_due,
     )
 
 
@@ -122,6 +123,9 @@ def fit(
     if folder.chain.exists() and not overwrite:
         raise RunExists(f"{out} already holds a run; pass --overwrite to replace it or "
                               f"'pavement-mcmc resume {out}' to continue it")
+    if out.is_dir() and any(out.iterdir()) and not any(f.exists() for f in folder.files().values()):
+        raise RunExists(f"{out} is a folder of other files, not a run: give a new or empty "
+                        "folder to --out (a run writes chain.h5, summary.md, ... into it)")
     problem = build_problem(cfg)
     smp = _sampler_for(problem, cfg)
     laplace = map_start(problem, cfg, list(add or []))  # new parameters start from a MAP
@@ -179,10 +183,18 @@ def _finish(run_dir: Path, problem: Problem, res: RunResult, chosen: dict | None
         rec["sampler_chosen"] = chosen
     if problem.grid_chosen:
         rec["grid_chosen"] = problem.grid_chosen
-    folder.write_result(rec)
     table = statistics_table(problem, keep(data, rec, problem.cfg.sampler))
-    write_table(table, run_dir)
     findings = plausibility(problem, table)
-    write_plausibility(findings, run_dir, problem.model.boundary_note())
+    try:  # the summaries first: a run with result.json is finished, one without is resumed
+        write_table(table, run_dir, findings, problem.model.boundary_note())
+        folder.write_result(rec)
+    except OSError as err:
+        if err.errno not in (errno.ENOSPC, errno.EDQUOT, errno.EFBIG):
+            raise
+        raise StoreWriteFailed(f"{run_dir}: the chain is whole ({data.n_saved} rows), but writing "
+                               f"{Path(err.filename).name if err.filename else 'a file'}"
+                               f" failed ({err.strerror}); free space, then 'pavement-mcmc "
+                               f"resume {run_dir}'", path=str(folder.chain), reason=err.strerror,
+                               n_saved=data.n_saved) from None
     return FitOutput(run_dir, res, table, problem, findings, chosen=dict(chosen or {}),
                      grid_chosen=dict(problem.grid_chosen or {}))

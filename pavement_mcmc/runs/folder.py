@@ -22,6 +22,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from ..diagnostics.stopping import LEGACY_RULE, StoppingRule
+from ..storage import write_atomic
 
 #: the states of a run folder, in the order a run goes through them
 STATES = ("empty", "unfinished", "failed", "finished")
@@ -77,16 +78,25 @@ class RunFolder:
     # ----------------------------------------------------------------- records
     def read_result(self) -> dict | None:
         """``result.json`` as a dict, None while the run is unfinished."""
-        return json.loads(self.result.read_text()) if self.result.is_file() else None
+        if not self.result.is_file():
+            return None
+        try:
+            return json.loads(self.result.read_text())
+        except (json.JSONDecodeError, UnicodeDecodeError) as err:
+            from ..data import RunError
+
+            raise RunError(f"{self.result} is damaged ({err.__class__.__name__}: cut short by a "
+                           f"full disk?); 'pavement-mcmc resume {self.path}' writes it again "
+                           "from the chain") from None
 
     def write_result(self, rec: dict) -> None:
-        self.result.write_text(json.dumps(rec, indent=2, default=float))
+        write_atomic(self.result, json.dumps(rec, indent=2, default=float))
 
     def read_config(self) -> dict:
         return json.loads(self.config.read_text())
 
     def write_config(self, rec: dict) -> None:
-        self.config.write_text(json.dumps(rec, indent=2))
+        write_atomic(self.config, json.dumps(rec, indent=2))
 
     # ----------------------------------------------------------------- state
     @property

@@ -135,6 +135,7 @@ def run_sampler(
     rhat_max: float | None = None,
     min_steps: int = 0,
     callback: Callable[[dict], None] | None = None,
+    check_due: bool = True,
 ) -> RunResult:
     """Run ``sampler`` into ``store`` until ``rule`` is met or the budget is out.
 
@@ -143,7 +144,9 @@ def run_sampler(
     The sampler is prepared (``store`` empty) or restored from ``store.state`` (resume: the
     stored rows are read back). ``burn_in`` and ``n_adapt`` are in steps (adaptation defaults
     to the sampler's ``adapt_length``, or ``burn_in``); every ``thin``-th step is stored; no
-    stop on convergence before ``min_steps``. Returns a :class:`RunResult`.
+    stop on convergence before ``min_steps``. ``check_due``: a resumed run whose last commit's
+    check never ran (killed between the two; no ``result.json``) does it before sampling on.
+    Returns a :class:`RunResult`.
     """
     t0 = time.perf_counter()
     rule = (rule or StoppingRule()).with_overrides(
@@ -162,7 +165,20 @@ def run_sampler(
     hint = loop_state.get("hint", [0, 0.0])  # [burn-in rows, tau_max] of the last check
     min_ess = None  # the smallest ESS the last checks estimated (the progress line's)
     first = loop_state.get("first")  # the parameter that held the last check (its ESS or R-hat)
-    while True:
+    reason = ""
+
+    def quick_check():
+        nonlocal check, hint, converged, min_ess, first, reason
+        check = rule.check(rows, *rows.small(), n_adapt_rows, burn_rows, names, full=False,
+                           first=first)
+        hint, converged = _hint(check, hint), not check.failures
+        min_ess = _min_ess(check, min_ess)
+        first = check.held_by if check.held_by is not None else first
+        reason = rule.met_text() if converged else reason
+
+    if check_due and loop_state.get("due") and n_steps >= min_steps:
+        quick_check()  # killed between a commit and its check: the check first, as the run would
+    while not converged:
         reason = _budget_out(n_steps, max_steps, max_seconds, time.perf_counter() - t0)
         if reason:
             break
@@ -181,16 +197,11 @@ def run_sampler(
         state = sampler.get_state()
         state.extra["loop"] = {"n_steps": n_steps, "n_evals": n_evals, "n_adapt": n_adapt,
                                "thin": thin, "next_check": next_check, "hint": hint,
-                               "first": first}
+                               "first": first, "due": bool(due and n_steps >= min_steps)}
         store.flush(state)
         block = _next_block(todo, dt, time.perf_counter() - t0, block_seconds, thin)
         if due and n_steps >= min_steps:
-            check = rule.check(rows, *rows.small(), n_adapt_rows, burn_rows, names, full=False,
-                               first=first)
-            hint, converged = _hint(check, hint), not check.failures
-            min_ess = _min_ess(check, min_ess)
-            first = check.held_by if check.held_by is not None else first
-            reason = rule.met_text() if converged else reason
+            quick_check()
         if callback is not None:
             callback({"n_steps": n_steps, "n_evals": n_evals, "n_adapt": n_adapt,
                       "max_steps": max_steps, "adapting": adapt,

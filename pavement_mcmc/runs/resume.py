@@ -17,7 +17,7 @@ from .fit import FitOutput, _finish, _run, _sampler_for, resume_hint
 from .folder import RunFolder, case_rule
 from .kept import keep
 from .loop import RunResult
-from .tables import plausibility, statistics_table
+from .tables import plausibility, statistics_table, write_table
 from .threads import single_blas_thread
 
 
@@ -88,6 +88,10 @@ def resume(run_dir: str | Path, *, max_seconds: float | None = None, callback=No
     if ess_target is not None:
         overrides = merge_overrides(overrides, {"sampler": {"ess_target": float(ess_target)}})
     cfg = load_case(src, overrides or None, additions=rec.get("additions") or None)
+    try:
+        folder.read_result()
+    except RunError:  # a result.json cut short (written before they were atomic): the chain
+        folder.result.unlink()  # is the record; the rule is checked on it again below
     done = stored_result(run_dir)
     store = HDF5Store.open_append(folder.chain)
     with store:
@@ -120,7 +124,8 @@ def resume(run_dir: str | Path, *, max_seconds: float | None = None, callback=No
         for stale in folder.outputs():  # they describe the old chain: until _finish writes
             stale.unlink(missing_ok=True)  # them anew the run is unfinished (if killed, too)
         try:
-            res = _run(problem, smp, store, scfg, callback, max_seconds, min_steps, rule)
+            res = _run(problem, smp, store, scfg, callback, max_seconds, min_steps, rule,
+                       check_due=done is None)
         except StoreWriteFailed as err:
             raise resume_hint(err, run_dir) from None
     return replace(_finish(run_dir, problem, res, getattr(smp, "chosen", {})),
@@ -133,4 +138,7 @@ def _unchanged(run_dir: Path, problem, res: RunResult) -> FitOutput:
     folder = RunFolder(run_dir)
     data = read_run(folder.chain)
     table = statistics_table(problem, keep(data, folder.read_result(), problem.cfg.sampler))
+    if not (folder.summary_csv.is_file() and folder.summary_md.is_file()):
+        # killed between result.json and the summaries (before they were written first)
+        write_table(table, run_dir, plausibility(problem, table), problem.model.boundary_note())
     return FitOutput(run_dir, res, table, problem, plausibility(problem, table), ran=False)

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import csv
+import io
 import math
 from pathlib import Path
 
@@ -12,6 +13,7 @@ from .. import diagnostics as dg
 from ..physics import LITERATURE
 from ..physics.materials import Finding, check_values, declared_material
 from ..posterior import Problem
+from ..storage import write_atomic
 from .folder import RunFolder
 from .kept import KeptChain
 
@@ -67,17 +69,22 @@ def statistics_table(problem: Problem, kept: KeptChain) -> list[dict]:
     return rows
 
 
-def write_table(rows: list[dict], run_dir: Path) -> None:
-    """``summary.csv`` and ``summary.md`` in ``run_dir``."""
+def write_table(rows: list[dict], run_dir: Path, findings: list[Finding] | None = None,
+                note: str | None = None) -> None:
+    """``summary.csv`` and ``summary.md`` in ``run_dir``, each written whole or not at all;
+    ``summary.md`` ends with the plausibility ``findings`` and the boundary ``note`` when given
+    (:func:`plausibility_text`)."""
     if not rows:
         return
     folder = RunFolder(run_dir)
     keys = list(rows[0])
-    with open(folder.summary_csv, "w", newline="") as fh:
-        w = csv.DictWriter(fh, fieldnames=keys)
-        w.writeheader()
-        w.writerows(rows)
-    folder.summary_md.write_text(format_table(rows) + "\n")
+    buf = io.StringIO()
+    w = csv.DictWriter(buf, fieldnames=keys)
+    w.writeheader()
+    w.writerows(rows)
+    write_atomic(folder.summary_csv, buf.getvalue())
+    tail = "" if findings is None else plausibility_text(findings, note)
+    write_atomic(folder.summary_md, format_table(rows) + "\n" + tail)
 
 
 def format_table(rows: list[dict]) -> str:
@@ -105,13 +112,12 @@ def plausibility(problem: Problem, rows: list[dict]) -> list[Finding]:
     return check_values(kappa, C, h or None, declared)
 
 
-def write_plausibility(findings: list[Finding], run_dir: Path, note: str | None = None) -> None:
-    """Append the findings to ``summary.md`` (a line saying none were found otherwise), and
-    ``note`` (what the model's boundary implies)."""
+def plausibility_text(findings: list[Finding], note: str | None = None) -> str:
+    """The plausibility section of ``summary.md``: the findings (a line saying none were found
+    otherwise) and ``note`` (what the model's boundary implies)."""
     lines = ["", "## Physical plausibility of the posterior means", ""]
     lines += [f"- {f.text()}" for f in findings] or ["- every estimate is inside the plausible "
                                                       "ranges of pavement and ground materials"]
     if note:
         lines += ["", f"Note: {note}."]
-    with open(RunFolder(run_dir).summary_md, "a", encoding="utf-8") as fh:
-        fh.write("\n".join(lines) + "\n")
+    return "\n".join(lines) + "\n"

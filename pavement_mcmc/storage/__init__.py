@@ -21,6 +21,7 @@ from __future__ import annotations
 
 from ..samplers.state import RunState, rng_from_state
 from .base import FORMAT_VERSION, Store, StoreBusy, StoreMismatch  # noqa: F401  (FORMAT_VERSION)
+from .files import write_atomic
 from .hdf5 import HDF5Store, read_run
 from .integrity import StoreDamaged, StoreWriteFailed
 from .memory import MemoryStore
@@ -39,4 +40,5 @@ __all__ = [
     "config_diff",
     "read_run",
     "rng_from_state",
+    "write_atomic",
 ]

@@ -32,6 +32,7 @@ from .integrity import (
     N_DIGEST,
     StoreDamaged,
     StoreWriteFailed,
+    check_headers,
     close_after_failure,
     creation_failed,
     first_line,
@@ -175,6 +176,13 @@ class HDF5Store(Store):
         """
         h5py = _h5py()
         path = os.fspath(path)
+        # first as a reader (bounded attempts, checked headers): HDF5's own r+ open of a file
+        # with a damaged header can wait for ever or fail deep inside, and writes to it
+        reader = cls.open_readonly(path)
+        try:
+            check_headers(reader._f, path)
+        finally:
+            reader.close()
         try:
             f = h5py.File(path, "r+", libver="latest")
         except FileNotFoundError:

@@ -170,3 +170,18 @@ def unreadable(path: str, err: BaseException, what: str = "HDF5 cannot read it")
     """A damaged file's error: what HDF5 said, and whether the file was cut short."""
     return StoreDamaged(f"{path} is damaged: {truncation(path) or what} ({first_line(err)}); "
                         "it is not read")
+
+
+def check_headers(f, path: str) -> None:
+    """Open every object of the HDF5 file ``f`` (no data read): :class:`StoreDamaged` naming the
+    first whose header HDF5 cannot read (its metadata checksums)."""
+    names: list[str] = []
+    try:
+        f.visit(names.append)
+    except (KeyError, OSError, RuntimeError, ValueError) as err:
+        raise unreadable(path, err, "its objects cannot be listed") from err
+    for name in names:
+        try:
+            dict(f[name].attrs)
+        except (KeyError, OSError, RuntimeError, ValueError) as err:
+            raise unreadable(path, err, f"the header of {name!r} cannot be read") from err
