@@ -50,6 +50,9 @@ MATERIALS: dict[str, Material] = {m.name: m for m in (
     Material("peat", (0.1, 0.5), (0.6e6, 3.8e6), (0.05e-6, 0.3e-6), "O87, F81"),
 )}
 
+#: the materials the paper's literature values (kappa 2.27, C 2.10 MJ, h 10) stand for
+PAVEMENTS = ("asphalt", "concrete")
+
 #: the union of every ground material above: outside it no ground has such a value
 ANY_GROUND = Material(
     "any ground",

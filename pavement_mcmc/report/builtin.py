@@ -7,12 +7,9 @@ from collections.abc import Callable
 
 import numpy as np
 
-from ..physics.materials import declared_material
+from ..physics.materials import PAVEMENTS, declared_material
 from ..runs.view import RunView
 from .markup import _fmt, _img
-
-#: materials the paper's literature values (kappa 2.27, C 2.10 MJ, h 10) stand for
-PAVEMENTS = ("asphalt", "concrete")
 
 
 def _lags(kept: np.ndarray, tau: float, thin: int) -> int:

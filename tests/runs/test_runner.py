@@ -107,3 +107,16 @@ def test_cli_fit_json(tmp_path, capsys):
     assert code == 1 and payload["converged"] is False and payload["n_steps"] == 30
     code = main(["fit", str(case), "--out", str(tmp_path / "r"), "--sampler", "nuts"])
     assert code == 2
+
+
+def test_the_papers_literature_values_only_for_a_pavement(tmp_path):
+    """The paper's kappa 2.27, C 2.10 MJ, h 10 are an asphalt's: a case declaring a loam gets
+    no literature values in its table (it showed them for every ground; Case A, which declares
+    no material, keeps them: the first test)."""
+    out = fit(_case(tmp_path), tmp_path / "run", overrides={"model": {"material": "loam"}})
+    assert all(np.isnan(r["literature"]) for r in out.table)
+    (tmp_path / "b").mkdir()
+    out = fit(_case(tmp_path / "b", max_steps=20), tmp_path / "b" / "run",
+              overrides={"model": {"material": "asphalt"}})
+    rows = {r["parameter"]: r for r in out.table}
+    assert rows["kappa"]["literature"] == 2.27 and rows["h_2"]["literature"] == 10.0
