@@ -123,7 +123,7 @@ def fit(
     if folder.chain.exists() and not overwrite:
         raise RunExists(f"{out} already holds a run; pass --overwrite to replace it or "
                               f"'pavement-mcmc resume {out}' to continue it")
-    if out.is_dir() and any(out.iterdir()) and not any(f.exists() for f in folder.files().values()):
+    if out.is_dir() and any(out.iterdir()) and not (folder.chain.exists() or folder.config.exists()):
         raise RunExists(f"{out} is a folder of other files, not a run: give a new or empty "
                         "folder to --out (a run writes chain.h5, summary.md, ... into it)")
     problem = build_problem(cfg)

@@ -90,12 +90,15 @@ def resume(run_dir: str | Path, *, max_seconds: float | None = None, callback=No
     cfg = load_case(src, overrides or None, additions=rec.get("additions") or None)
     try:
         folder.read_result()
+        cut = False
     except RunError:  # a result.json cut short (written before they were atomic): the chain
-        folder.result.unlink()  # is the record; the rule is checked on it again below
-    done = stored_result(run_dir)
+        cut = True  # is the record; the rule is checked on it again below
+    done = None if cut else stored_result(run_dir)
     store = HDF5Store.open_append(folder.chain)
     with store:
         store.check_compatible(_data_meta(cfg, store.meta))
+        if cut:  # only once the chain opened whole
+            folder.result.unlink()
         problem = build_problem(cfg, input_noise=store.meta.get("input_ref"))
         state = store.state
         if state is None:

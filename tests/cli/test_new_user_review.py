@@ -67,6 +67,11 @@ def test_out_into_a_folder_of_other_files_is_refused(tmp_path, capsys):
     assert main(["fit", CASE, "--out", str(tmp_path)]) == 2
     assert "not a run" in _err(capsys)
     assert [p.name for p in tmp_path.iterdir()] == ["keep.txt"]
+    own = tmp_path / "case.toml"  # the user's own case file there: not a run either
+    text = Path(CASE).read_text().replace("../data/", f"{REPO}/data/")
+    own.write_text(text)
+    assert main(["fit", str(own), "--out", str(tmp_path), "--overwrite"]) == 2
+    assert "not a run" in _err(capsys) and own.read_text() == text
 
 
 def test_report_into_a_missing_folder_and_diagnose_of_a_non_run(tiny_run, tmp_path, capsys):

@@ -83,6 +83,16 @@ def test_a_cut_result_json_is_named_and_resume_writes_it_again(run, finished_run
         k: v for k, v in json.loads(whole).items() if k not in timing}
 
 
+def test_a_cut_result_json_is_kept_when_the_chain_is_damaged_too(run):
+    (run / "result.json").write_text("{")
+    with h5py.File(run / "chain.h5", "r") as f:
+        addr = h5py.h5o.get_info(f["chain"].id).addr
+    _flip(run / "chain.h5", addr + 10)
+    with pytest.raises(StoreDamaged):
+        resume(run)
+    assert (run / "result.json").read_text() == "{"
+
+
 def test_missing_summaries_of_a_finished_run_are_written_again(run, finished_run):
     for f in ("summary.csv", "summary.md"):
         (run / f).unlink()
