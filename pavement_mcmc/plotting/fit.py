@@ -38,7 +38,7 @@ def plot_fit(
     Notes
     -----
     The grey band is ``predicted ± sigma``: where measurements should fall about 68 % of the
-    time if the model and ``sigma`` are right. Residuals are measured minus predicted, with the
+    time if the model and ``sigma`` are right. Residuals are predicted minus measured (as in the criticism), with the
     ``± sigma`` band; the first row is the initial condition (zero residual by construction).
     """
     t = hours(meas.t)
@@ -68,16 +68,16 @@ def plot_fit(
         ax.set_title(f"sensor at {meas.depths[s] * 100:g} cm")
         ax.set_ylabel("temperature (°C)")
         ax.tick_params(labelbottom=False)
-        res = obs[:, s] - pred[:, s]
+        res = pred[:, s] - obs[:, s]
         axr.axhspan(-sigma, sigma, color="0.85", lw=0, label="± σ")
         axr.axhline(0, color="0.5", lw=0.8)
         axr.plot(t, res, ".", ms=3, color=col, label=f"RMSE {_rmse(res):.3f} °C")
         if literature is not None:
-            lres = obs[:, s] - literature[:, s]
+            lres = literature[:, s] - obs[:, s]
             axr.plot(t, lres, color="0.3", ls="--", lw=0.8,
                      label=f"literature, RMSE {_rmse(lres):.3f} °C")
         axr.set_xlabel(time_label())
-        axr.set_ylabel("meas. − pred. (°C)")
+        axr.set_ylabel("pred − meas (°C)")
         axr.legend(fontsize=6.5, loc="upper right", framealpha=0.6)
         if handles is None:
             handles = ax.get_legend_handles_labels()
@@ -99,7 +99,7 @@ def plot_streams(
 ) -> Figure:
     """Observations other than the buried sensors (heat-flux plates, an infrared surface
     temperature): measured against the posterior predictive, one column per quantity,
-    residuals (measured minus predicted, as in :func:`plot_fit`) beneath.
+    residuals (predicted minus measured, as in :func:`plot_fit`) beneath.
 
     Parameters
     ----------
@@ -126,12 +126,12 @@ def plot_streams(
         ax.set_ylabel(f"{title} ({unit})")
         ax.tick_params(labelbottom=False)
         ax.legend(fontsize=7, loc="upper left", framealpha=0.6)
-        res = obs - med[1:]
+        res = med[1:] - obs
         axr.axhline(0, color="0.5", lw=0.8)
         axr.plot(t[1:], res, ".", ms=3, color=col,
                  label=f"RMSE {float(np.sqrt(np.mean(res * res))):.3g} {unit}")
         axr.set_xlabel(time_label())
-        axr.set_ylabel(f"meas. − pred. ({unit})")
+        axr.set_ylabel(f"pred − meas ({unit})")
         axr.legend(fontsize=6.5, loc="upper right", framealpha=0.6)
     return fig
 

@@ -107,7 +107,7 @@ def _figures(view: RunView, n_draws: int) -> list[tuple[str, Callable, str]]:
          f"Posterior predictive median and 95 % band from {n_draws} posterior draws solved in "
          "one batch; grey: ± σ" + ("; dashed: the paper's literature values for its pavement"
                                   if paper_ground else "")
-         + ". Residuals are measured minus predicted."),
+         + ". Residuals are predicted minus measured, as in the criticism."),
     ]
     if not pb.model.top_measured:
         figs.append(("Surface heat transfer coefficient h(t)", h_plot,

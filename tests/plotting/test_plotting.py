@@ -91,7 +91,7 @@ def test_fit_h_flux_figures(problem):
     f = pl.plot_fit(meas, pred, band=(pred - 0.1, pred + 0.1), literature=pred + 0.5)
     _labelled(f)
     labels = [ax.get_ylabel() for ax in f.axes]
-    assert "temperature (°C)" in labels and "meas. − pred. (°C)" in labels
+    assert "temperature (°C)" in labels and "pred − meas (°C)" in labels
     assert f.axes[1].get_xlabel() == "time (h)"
     h = np.random.default_rng(0).normal(10, 1, (20, meas.n_obs - 1))
     f = pl.plot_h(meas.t, h, wind=meas.wind, truth=np.full(meas.n_obs, 10.0))
