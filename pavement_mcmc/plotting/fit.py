@@ -38,8 +38,9 @@ def plot_fit(
     Notes
     -----
     The grey band is ``predicted ± sigma``: where measurements should fall about 68 % of the
-    time if the model and ``sigma`` are right. Residuals are predicted minus measured (as in the criticism), with the
-    ``± sigma`` band; the first row is the initial condition (zero residual by construction).
+    time if the model and ``sigma`` are right. Residuals are predicted minus measured (as in the
+    criticism), with the ``± sigma`` band; the first row is the initial condition (zero residual
+    by construction).
     """
     t = hours(meas.t)
     obs = np.asarray(meas.T_obs, float)
