@@ -3,10 +3,12 @@
 from __future__ import annotations
 
 import csv
+import io
 import math
 from collections.abc import Callable
 from pathlib import Path
 
+from ..storage import write_atomic
 from .engine import Failure, map_units
 from .unit import COLUMNS, run_unit
 from .units import Unit, check_unique
@@ -47,12 +49,13 @@ def run_batch(units: list[Unit], out: str | Path, *, seed: int = 0, scheduler: s
 def _write_costs(units: list[Unit], results: list, path: Path) -> None:
     """What each unit cost where it ran: wall and CPU time and the worker's peak memory (measured,
     so it differs from run to run: kept out of the reproducible ``batch.csv``)."""
-    with open(path, "w", newline="", encoding="utf-8") as fh:
-        w = csv.writer(fh)
-        w.writerow(COST_COLUMNS)
-        for u, r in zip(units, results):
-            rec = {} if isinstance(r, Failure) else r
-            w.writerow([u.key, *(_cell(rec.get(c, float("nan"))) for c in COST_COLUMNS[1:])])
+    buf = io.StringIO()
+    w = csv.writer(buf)
+    w.writerow(COST_COLUMNS)
+    for u, r in zip(units, results):
+        rec = {} if isinstance(r, Failure) else r
+        w.writerow([u.key, *(_cell(rec.get(c, float("nan"))) for c in COST_COLUMNS[1:])])
+    write_atomic(path, buf.getvalue())
 
 
 def _failed_row(unit: Unit, f: Failure) -> dict:
@@ -68,11 +71,12 @@ def write_table(rows: list[dict], path: str | Path) -> Path:
     """The batch table as CSV (floats written with ``repr``: the exact values, so two tables
     are equal as files exactly when their numbers are equal)."""
     path = Path(path)
-    with open(path, "w", newline="", encoding="utf-8") as fh:
-        w = csv.writer(fh)
-        w.writerow(COLUMNS)
-        for r in rows:
-            w.writerow([_cell(r.get(c)) for c in COLUMNS])
+    buf = io.StringIO()
+    w = csv.writer(buf)
+    w.writerow(COLUMNS)
+    for r in rows:
+        w.writerow([_cell(r.get(c)) for c in COLUMNS])
+    write_atomic(path, buf.getvalue())
     return path
 
 

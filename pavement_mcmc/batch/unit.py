@@ -37,7 +37,7 @@ import numpy as np
 from ..data import ConfigError, DataError
 from ..runs import RunFolder, fit, load_kept, resume
 from ..runs.tables import plausibility, statistics_table
-from ..storage import StoreBusy, StoreMismatch
+from ..storage import StoreBusy, StoreMismatch, write_atomic
 from .units import Unit, unit_seed
 
 #: the columns of the batch table, in order (units: kappa W m-1 K-1, C J m-3 K-1, kappa/C m2 s-1,
@@ -88,9 +88,7 @@ def run_unit(unit: Unit, out: str | Path, batch_seed: int = 0, *, max_seconds: f
     run_dir.mkdir(parents=True, exist_ok=True)
     record = {**row, "elapsed_s": time.perf_counter() - t0,
               "cpu_s": time.process_time() - cpu0, "peak_rss_mb": _peak_rss_mb()}
-    tmp = done.with_name(f"{done.name}.{os.getpid()}.tmp")
-    tmp.write_text(json.dumps(record, indent=1))
-    os.replace(tmp, done)  # atomic: a unit is finished exactly when unit.json exists
+    write_atomic(done, json.dumps(record, indent=1))  # a unit is finished exactly when unit.json exists
     return record
 
 

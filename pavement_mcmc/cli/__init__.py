@@ -15,6 +15,7 @@ from pathlib import Path
 
 from .. import __version__
 from ..data.errors import UserError
+from ..storage.files import DISK_FULL
 
 #: sub-command name -> module in this package (in the order ``--help`` lists them)
 COMMANDS = {
@@ -80,7 +81,7 @@ _PACKAGE_DIR = str(Path(__file__).resolve().parents[1])
 
 
 #: a full disk, a quota, a file-size limit, a failing device: one line, not a traceback
-_DISK_ERRORS = {errno.ENOSPC, errno.EDQUOT, errno.EFBIG, errno.EIO}
+_DISK_ERRORS = DISK_FULL | {errno.EIO}
 
 
 def _split_sets(argv: list[str]) -> list[str]:

@@ -9,7 +9,6 @@ run (unless forced) and prints the others loudly. Numbers and words only; nothin
 
 from __future__ import annotations
 
-import hashlib
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -142,20 +141,11 @@ def rmse_vs_map(label: str, rmse_sampled: float, rmse_map: float, rel: float = 1
                  "mode (stuck at a bound or unconverged); resume or refit before comparing")
 
 
-def _sensor_hash(meas) -> str:
-    """What a comparison scores: the times, the buried sensors' depths and readings, sigma."""
-    h = hashlib.sha256()
-    for arr in (meas.t, meas.depths, meas.T_obs):
-        h.update(np.ascontiguousarray(arr, dtype=np.float64).tobytes())
-    h.update(repr(float(meas.sigma)).encode())
-    return h.hexdigest()
-
-
 def same_data(runs: list[tuple[str, object]]) -> Guard | None:
     """``(label, problem)`` of the runs a comparison ranks: a warning when they were not fitted
     to the same sensor data (another window, file, sensor set or sigma), whose errors do not
     compare. Other streams (a plate, the infrared temperature) may differ: they are not scored."""
-    hashes = [_sensor_hash(pb.meas) for _, pb in runs]
+    hashes = [pb.meas.sensors_hash() for _, pb in runs]
     if len(set(hashes)) <= 1:
         return None
     first = runs[0][0]

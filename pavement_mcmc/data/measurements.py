@@ -136,6 +136,15 @@ class Measurements:
             extras=MappingProxyType({k: v[rows] for k, v in self.extras.items()}),
         )
 
+    def sensors_hash(self) -> str:
+        """SHA-256 over what a comparison of fits scores: the times, the buried sensors' depths
+        and readings, and sigma (not the forcing, plates or extras)."""
+        h = hashlib.sha256()
+        for arr in (self.t, self.depths, self.T_obs):
+            h.update(np.ascontiguousarray(arr, dtype=np.float64).tobytes())
+        h.update(repr(float(self.sigma)).encode())
+        return h.hexdigest()
+
     def data_hash(self) -> str:
         """SHA-256 over the numerical content, so a stored run can refuse changed data."""
         h = hashlib.sha256()

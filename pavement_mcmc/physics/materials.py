@@ -116,6 +116,12 @@ def declared_material(problem) -> str | None:
     return None if model is None else model.get("material")
 
 
+def paper_values_apply(problem) -> bool:
+    """Whether the paper's literature values (a pavement's) describe this case's ground: it is
+    a pavement, or declares no material."""
+    return declared_material(problem) in (None, *PAVEMENTS)
+
+
 def check_values(kappa: float | None = None, C: float | None = None,
                  h: list[float] | None = None, declared: str | None = None) -> list[Finding]:
     """Findings for the ground's kappa and C (and their ratio) and for h values.

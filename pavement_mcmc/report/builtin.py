@@ -7,7 +7,7 @@ from collections.abc import Callable
 
 import numpy as np
 
-from ..physics.materials import PAVEMENTS, declared_material
+from ..physics.materials import paper_values_apply
 from ..runs.view import RunView
 from .markup import _fmt, _img
 
@@ -68,8 +68,7 @@ def _figures(view: RunView, n_draws: int) -> list[tuple[str, Callable, str]]:
     truths = view.truths()
     a = view.assessment
 
-    # the paper's literature values are a pavement's: not drawn over a declared ground
-    paper_ground = declared_material(pb) in (None, *PAVEMENTS)
+    paper_ground = paper_values_apply(pb)
 
     def fit():
         pr = view.predictive(n_draws)

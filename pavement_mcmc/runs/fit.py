@@ -7,7 +7,6 @@ never re-run a sampler.
 
 from __future__ import annotations
 
-import errno
 import secrets
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
@@ -17,7 +16,7 @@ import numpy as np
 from ..data import ConfigError, RunExists, load_case, merge_overrides
 from ..posterior import Problem, build_problem, find_map
 from ..samplers import get_sampler
-from ..storage import HDF5Store, StoreWriteFailed, read_run
+from ..storage import DISK_FULL, HDF5Store, StoreWriteFailed, read_run
 from .casefile import store_meta, write_case_record
 from .folder import RunFolder, case_rule
 from .kept import keep
@@ -189,7 +188,7 @@ def _finish(run_dir: Path, problem: Problem, res: RunResult, chosen: dict | None
         write_table(table, run_dir, findings, problem.model.boundary_note())
         folder.write_result(rec)
     except OSError as err:
-        if err.errno not in (errno.ENOSPC, errno.EDQUOT, errno.EFBIG):
+        if err.errno not in DISK_FULL:
             raise
         raise StoreWriteFailed(f"{run_dir}: the chain is whole ({data.n_saved} rows), but writing "
                                f"{Path(err.filename).name if err.filename else 'a file'}"

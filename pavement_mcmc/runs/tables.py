@@ -11,7 +11,7 @@ import numpy as np
 
 from .. import diagnostics as dg
 from ..physics import LITERATURE
-from ..physics.materials import PAVEMENTS, Finding, check_values, declared_material
+from ..physics.materials import Finding, check_values, declared_material, paper_values_apply
 from ..posterior import Problem
 from ..storage import write_atomic
 from .folder import RunFolder
@@ -51,7 +51,7 @@ def statistics_table(problem: Problem, kept: KeptChain) -> list[dict]:
                     "q2.5": float(q[0, i]), "q97.5": float(q[1, i]), "ess": float("nan"),
                     "rhat": float("nan")} for i, n in enumerate(names)}
     truth = truth_values(problem)
-    paper = declared_material(problem) in (None, *PAVEMENTS)  # the paper's values: a pavement's
+    paper = paper_values_apply(problem)
     rows = []
     for name in names:
         p = problem.space[name]

@@ -21,13 +21,14 @@ from __future__ import annotations
 
 from ..samplers.state import RunState, rng_from_state
 from .base import FORMAT_VERSION, Store, StoreBusy, StoreMismatch  # noqa: F401  (FORMAT_VERSION)
-from .files import write_atomic
+from .files import DISK_FULL, write_atomic
 from .hdf5 import HDF5Store, read_run
 from .integrity import StoreDamaged, StoreWriteFailed
 from .memory import MemoryStore
 from .records import RunData, config_diff
 
 __all__ = [
+    "DISK_FULL",
     "HDF5Store",
     "MemoryStore",
     "RunData",

@@ -4,8 +4,12 @@ cut-off one that a later command would misread."""
 
 from __future__ import annotations
 
+import errno
 import os
 from pathlib import Path
+
+#: the errors of a full disk, a quota or a file-size limit (``ulimit -f``)
+DISK_FULL = frozenset({errno.ENOSPC, errno.EDQUOT, errno.EFBIG})
 
 
 def write_atomic(path: str | Path, text: str, encoding: str = "utf-8") -> None:
