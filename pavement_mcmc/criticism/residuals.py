@@ -32,6 +32,12 @@ from ..data.times import hour_of_day as clock_hours
 
 DAY = 86400.0
 SIGNALS = ("q_net", "q_net+", "wind", "T_air-T_s", "dT_s/dt", "rain", "T_sensor", "tod_sin", "tod_cos")
+#: what each signal is, in the words and units a figure gives it
+SIGNAL_LABELS = {"q_net": "net radiation (W m⁻²)", "q_net+": "daytime net radiation (> 0)",
+                 "wind": "wind (m s⁻¹)", "T_air-T_s": "air − surface temperature",
+                 "dT_s/dt": "surface warming rate", "rain": "rain (mm)",
+                 "T_sensor": "the sensor's own temperature", "tod_sin": "time of day (sine)",
+                 "tod_cos": "time of day (cosine)"}
 
 
 def lag1(x: np.ndarray) -> float:

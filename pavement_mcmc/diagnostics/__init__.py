@@ -34,7 +34,7 @@ from .autocorr import (
 from .burnin import choose_burn_in, is_drifting, trend_z
 from .rhat import split_rhat
 from .segments import SegmentSummary, acceptance_over_time, segment_summary
-from .stationarity import GewekeResult, geweke, geweke_components
+from .stationarity import GewekeResult, GewekeVerdict, geweke, geweke_components, geweke_verdict
 from .stopping import Check, StoppingRule
 from .summarize import summary
 
@@ -43,6 +43,7 @@ __all__ = [
     "AutocorrWarning",
     "Check",
     "GewekeResult",
+    "GewekeVerdict",
     "SegmentSummary",
     "StoppingRule",
     "acceptance_over_time",
@@ -52,6 +53,7 @@ __all__ = [
     "ess",
     "geweke",
     "geweke_components",
+    "geweke_verdict",
     "integrated_time",
     "is_drifting",
     "mcse",

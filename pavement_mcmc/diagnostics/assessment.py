@@ -7,13 +7,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from .burnin import trend_z
-from .stationarity import geweke_components
+from .stationarity import GEWEKE_Z, geweke_verdict
 from .stopping import StoppingRule
 from .summarize import summary
-
-#: Geweke's |z| bound of the per-parameter check (the other thresholds are the run's
-#: :class:`~pavement_mcmc.diagnostics.StoppingRule`)
-GEWEKE_Z = 1.96
 
 
 @dataclass
@@ -61,8 +57,9 @@ class Assessment:
     def verdict_text(self) -> str:
         if self.trusted:
             return (f"The run can be trusted: it finished by its stopping rule "
-                    f"({self.rule.text()}), and Geweke finds no more early/late differences "
-                    "than chance.")
+                    f"({self.rule.text()})" + ("." if self.rule.geweke else
+                                               ", and Geweke finds no more early/late "
+                                               "differences than chance."))
         return "The run can NOT be trusted yet: " + " ".join(self.reasons)
 
 
@@ -100,7 +97,7 @@ def assess(run, burn_in: int, rule: StoppingRule | None = None,
         raise ValueError(f"only {nk} steps after a burn-in of {burn_in}: too short to diagnose")
     summ = summary(kept, names)
     table = {}
-    n_fail_other, n_fail_gew, big_z = [], [], []
+    n_fail_gew = []
     for name in names:
         s = dict(summ[name])
         ok_tau = np.isfinite(s["tau"]) and nk >= tau_factor * s["tau"]
@@ -110,12 +107,8 @@ def assess(run, burn_in: int, rule: StoppingRule | None = None,
         s.update(tau_ok=bool(ok_tau), ess_ok=bool(ok_ess), rhat_ok=bool(ok_rhat),
                  geweke_ok=bool(ok_gew), passed=bool(ok_tau and ok_ess and ok_rhat and ok_gew))
         table[name] = s
-        if not (ok_tau and ok_ess and ok_rhat):
-            n_fail_other.append(name)
         if not ok_gew:
             n_fail_gew.append(name)
-            if not np.isfinite(s["geweke_z"]) or abs(s["geweke_z"]) > 3.5:
-                big_z.append(name)
     acc = np.asarray(run.accepted[burn_in:], float)
     acc_w = acc.mean(axis=0)
     acceptance = float(acc.mean())
@@ -133,16 +126,14 @@ def assess(run, burn_in: int, rule: StoppingRule | None = None,
     bad_rhat = [k for k in names if not table[k]["rhat_ok"]]
     if bad_rhat:
         reasons.append(f"split-R-hat ≥ {rhat_max} for {_list(bad_rhat)} (walkers disagree).")
-    zc = np.abs(geweke_components(kept[:: max(1, -(-nk // 4000))]))  # thinned as summary
-    n_comp, fail_c = zc.size, int(np.sum(~(zc < GEWEKE_Z)))
-    if big_z or np.any(~(zc <= 3.5)) or fail_c > max(1, 0.1 * n_comp):
-        reasons.append(f"Geweke: early and late means differ for {_list(n_fail_gew)}; "
-                       f"{fail_c} of {n_comp} principal components differ (about "
-                       f"{0.05 * n_comp:.1f} expected by chance).")
+    gw = geweke_verdict(kept)  # the stopping rule's own test, on the same rows
+    if gw.failed:
+        who = f" for {_list(n_fail_gew)}" if n_fail_gew else ""
+        reasons.append(f"Geweke: early and late means differ{who}; {gw.text()}.")
     elif n_fail_gew:
         warns.append(f"Geweke |z| ≥ 1.96 for {_list(n_fail_gew)}; for the principal components "
-                     f"{fail_c} of {n_comp}: no more than chance ({0.05 * n_comp:.1f} expected; "
-                     "correlated parameters fail together).")
+                     f"{gw.n_fail_components} of {gw.zc.size}: no more than chance "
+                     f"({0.05 * gw.zc.size:.1f} expected; correlated parameters fail together).")
     if drifting:
         reasons.append(f"the kept log-posterior still drifts (trend z = {tz:.1f}): burn-in is "
                        "not over or the chain is still moving.")

@@ -8,6 +8,13 @@ import numpy as np
 
 from ._arrays import _as_3d, _next_pow_two
 
+#: Geweke's |z| bound of one parameter or component (5 % two-sided), and the bound none may pass
+GEWEKE_Z, GEWEKE_Z_MAX = 1.96, 3.5
+#: steps the Geweke verdict thins a kept chain to (as :func:`~pavement_mcmc.diagnostics.summary`)
+GEWEKE_ROWS = 4000
+#: the fewest steps the test takes (an early segment, 10 % of them, of 2 steps)
+GEWEKE_MIN_ROWS = 20
+
 
 class GewekeResult(NamedTuple):
     """Geweke's comparison of an early and a late segment of the chain, per parameter.
@@ -125,3 +132,52 @@ def geweke_components(x: np.ndarray, first: float = 0.1, last: float = 0.5) -> n
     e, V = np.linalg.eigh(0.5 * (corr + corr.T))
     keep = e > 1e-10 * max(float(e.max()), 1e-300)
     return geweke(y @ V[:, keep], first, last).z
+
+
+class GewekeVerdict(NamedTuple):
+    """Geweke's test of a kept chain as a run is judged by it (:func:`geweke_verdict`).
+
+    Attributes
+    ----------
+    z : per parameter.
+    zc : per principal component (:func:`geweke_components`).
+    failed : the chain's early and late means differ by more than chance, or the chain is
+        shorter than :data:`GEWEKE_MIN_ROWS` steps.
+    n_rows : the steps it was judged on.
+    """
+
+    z: np.ndarray
+    zc: np.ndarray
+    failed: bool
+    n_rows: int
+
+    @property
+    def n_fail_components(self) -> int:
+        return int(np.sum(~(np.abs(self.zc) < GEWEKE_Z)))
+
+    def text(self) -> str:
+        """The failure in words (``n`` of ``m`` components, against the 5 % of chance)."""
+        if self.n_rows < GEWEKE_MIN_ROWS:
+            return f"{self.n_rows} kept steps are too few for it ({GEWEKE_MIN_ROWS} needed)"
+        return (f"{self.n_fail_components} of {self.zc.size} principal components differ "
+                f"(about {0.05 * self.zc.size:.1f} expected by chance)")
+
+
+def geweke_verdict(kept: np.ndarray) -> GewekeVerdict:
+    """Do the early and late means of a kept chain differ by more than chance?
+
+    The chain (thinned to at most :data:`GEWEKE_ROWS` steps) fails when a parameter's or a
+    principal component's ``|z|`` exceeds :data:`GEWEKE_Z_MAX` (or is not finite), or when more
+    than 10 % of the components (5 % by chance; at least 2) have ``|z| >= 1.96``. The stopping
+    rule and the assessment both judge by this one function, on the same rows.
+    """
+    x = _as_3d(np.asarray(kept, float))
+    sub = x[:: max(1, -(-x.shape[0] // GEWEKE_ROWS))]
+    if sub.shape[0] < GEWEKE_MIN_ROWS:  # no early segment of 2 steps: the test cannot pass
+        return GewekeVerdict(np.full(x.shape[2], np.nan), np.zeros(0), True, sub.shape[0])
+    z = geweke(sub).z
+    zc = geweke_components(sub)
+    n_fail = int(np.sum(~(np.abs(zc) < GEWEKE_Z)))
+    failed = bool(np.any(~(np.abs(z) <= GEWEKE_Z_MAX)) or np.any(~(np.abs(zc) <= GEWEKE_Z_MAX))
+                  or n_fail > max(1, 0.1 * zc.size))
+    return GewekeVerdict(z, zc, failed, sub.shape[0])

@@ -7,8 +7,11 @@ threshold is a change of this file only.
 
 A kept chain (stored rows after the burn-in) passes when every parameter has ESS >=
 ``ess_target``, the chain is at least ``min_tau_lengths`` integrated autocorrelation times long,
-every split-R-hat is below ``rhat_max`` and the mean log-posterior does not drift
-(``|trend z| <= drift_z``, :func:`~pavement_mcmc.diagnostics.is_drifting`). The burn-in, unless
+every split-R-hat is below ``rhat_max``, the mean log-posterior does not drift
+(``|trend z| <= drift_z``, :func:`~pavement_mcmc.diagnostics.is_drifting`) and, with
+``geweke``, the early and late means of the kept chain agree by Geweke's test
+(:func:`~pavement_mcmc.diagnostics.geweke_verdict`, the test the assessment judges a run by: a
+run the rule stops is not then called untrustworthy by it). The burn-in, unless
 given, is the adaptation rows plus the MSER-5 truncation point of the log-posterior after them
 (:func:`~pavement_mcmc.diagnostics.choose_burn_in`).
 """
@@ -22,6 +25,7 @@ import numpy as np
 from .autocorr import integrated_time
 from .burnin import choose_burn_in, is_drifting
 from .rhat import split_rhat
+from .stationarity import GEWEKE_ROWS, geweke_verdict
 
 #: rows (after thinning) on which a check estimates tau, ESS and drift / split-R-hat
 TAU_ROWS, RHAT_ROWS = 1000, 500
@@ -57,12 +61,15 @@ class StoppingRule:
     rhat_max : split-R-hat bound (strict).
     min_tau_lengths : the kept chain must be this many integrated autocorrelation times long.
     drift_z : the kept log-posterior drifts when its trend statistic exceeds this.
+    geweke : Geweke's early/late test must pass too (False in rules recorded before it was
+        part of the rule, so that a stored run is judged as it was sampled).
     """
 
     ess_target: float = 1000.0
     rhat_max: float = 1.01
     min_tau_lengths: float = 50.0
     drift_z: float = 3.0
+    geweke: bool = True
 
     def with_overrides(self, **values) -> StoppingRule:
         """A copy with the given thresholds replaced; ``None`` values keep this rule's."""
@@ -74,20 +81,25 @@ class StoppingRule:
 
     @classmethod
     def from_dict(cls, d: dict | None) -> StoppingRule:
-        """The rule of a record; missing thresholds keep the defaults, unknown keys are ignored."""
-        names = {f.name for f in fields(cls)}
-        return cls(**{k: float(v) for k, v in (d or {}).items() if k in names and v is not None})
+        """The rule of a record; missing thresholds keep the defaults, unknown keys are ignored.
+        A record without ``geweke`` predates that criterion: its rule has it off."""
+        names = {f.name for f in fields(cls)} - {"geweke"}
+        d = d or {}
+        return cls(**{k: float(v) for k, v in d.items() if k in names and v is not None},
+                   geweke=bool(d.get("geweke", False)))
 
     def text(self) -> str:
         """The criteria in words, as the report and the command line state them."""
         return (f"ESS ≥ {self.ess_target:g} for every parameter, kept chain ≥ "
                 f"{self.min_tau_lengths:g} IACT, split-R̂ < {self.rhat_max:g}, no drift of the "
-                f"kept log-posterior (|trend z| ≤ {self.drift_z:g})")
+                f"kept log-posterior (|trend z| ≤ {self.drift_z:g})"
+                + (", early and late means agree (Geweke)" if self.geweke else ""))
 
     def met_text(self) -> str:
         """The plain sentence of a run that met the rule (the loop's stop reason)."""
         return (f"ESS >= {self.ess_target:g} for every parameter, kept chain"
-                f" >= {self.min_tau_lengths:g} tau, R-hat < {self.rhat_max}, no drift")
+                f" >= {self.min_tau_lengths:g} tau, R-hat < {self.rhat_max}, no drift"
+                + (", Geweke passed" if self.geweke else ""))
 
     def check(self, chain, logp: np.ndarray, accepted: np.ndarray, n_adapt_rows: int,
               burn_in: int | None = None, names: list[str] | None = None,
@@ -154,10 +166,16 @@ class StoppingRule:
             if not np.all(rhat < self.rhat_max):
                 held = int(np.nanargmax(rhat))
                 fails.append(f"R-hat {np.nanmax(rhat):.3f} >= {self.rhat_max} ({names[held]})")
+        if self.geweke and (full or not fails):  # the rows geweke_verdict keeps of chain[burn_in:]
+            gw = geweke_verdict(take(np.arange(burn_in, logp.shape[0],
+                                               max(1, -(-n_kept // GEWEKE_ROWS)))))
+            if gw.failed:
+                fails.append(f"Geweke: {gw.text()}")
         return Check(burn_in, ess, tau, rhat, acc, drifting, fails, held)
 
 
 #: the rule of runs stored before the rule was (their ``result.json`` has no ``"rule"``): the
 #: run loop's thresholds of then; their ESS target is their case's. Kept as history, so that a
 #: change of the defaults above does not re-judge old runs.
-LEGACY_RULE = StoppingRule(ess_target=1000.0, rhat_max=1.01, min_tau_lengths=50.0, drift_z=3.0)
+LEGACY_RULE = StoppingRule(ess_target=1000.0, rhat_max=1.01, min_tau_lengths=50.0, drift_z=3.0,
+                           geweke=False)

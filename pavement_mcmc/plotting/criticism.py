@@ -11,6 +11,7 @@ import numpy as np
 from matplotlib.colors import TwoSlopeNorm
 from matplotlib.figure import Figure
 
+from ..criticism.residuals import SIGNAL_LABELS
 from ._base import SENSOR_COLOURS, new_figure
 
 
@@ -25,6 +26,7 @@ def plot_residual_map(report, fig: Figure | None = None, title: str = "") -> Fig
     """
     fig = new_figure(fig, (9.0, 6.0))
     ax1, ax2, ax3 = fig.subplots(3, 1, sharex=False, height_ratios=[2.2, 2.0, 1.6])
+    ax2.sharex(ax1)  # the map and the series on one time axis
     th = report.t / 3600.0
     r = report.residuals
     lim = max(float(np.max(np.abs(r))), 1e-6)
@@ -38,8 +40,10 @@ def plot_residual_map(report, fig: Figure | None = None, title: str = "") -> Fig
     te = np.concatenate(([th[0]], 0.5 * (th[1:] + th[:-1]), [th[-1]]))
     m = ax1.pcolormesh(te, ze, r.T, cmap="RdBu_r", norm=TwoSlopeNorm(0.0, -lim, lim))
     ax1.invert_yaxis()
-    ax1.set_ylabel("depth (cm)")
-    fig.colorbar(m, ax=ax1, label="pred − meas (°C)")
+    ax1.set_ylabel("sensor depth (cm)")
+    ax1.set_yticks(z, [f"{d:g}" for d in z])
+    # one width for every panel (the colour bar beside the map, at the top)
+    fig.colorbar(m, ax=[ax1, ax2, ax3], label="pred − meas (°C)", shrink=0.38, anchor=(0.0, 1.0))
     ax1.set_title(
         title or f"residuals: RMSE {report.rmse:.3f} °C = {report.rmse_sigma:.2f} σ, lag-1 {report.rho:.2f}"
     )
@@ -52,11 +56,11 @@ def plot_residual_map(report, fig: Figure | None = None, title: str = "") -> Fig
     rm = [s.rmse for s in report.sensors]
     bi = [s.bias for s in report.sensors]
     ax3.plot(rm, z, "o-", label="RMSE")
-    ax3.plot(bi, z, "s--", label="mean")
+    ax3.plot(bi, z, "s--", label="mean (bias)")
     ax3.axvline(report.sigma, color="0.5", lw=0.8, ls=":", label="σ")
     ax3.axvline(0, color="0.3", lw=0.5)
     ax3.invert_yaxis()
-    ax3.set_xlabel("residual (°C)")
+    ax3.set_xlabel("residual over the window, per sensor (°C)")
     ax3.set_ylabel("depth (cm)")
     ax3.legend(fontsize=7)
     return fig
@@ -65,20 +69,22 @@ def plot_residual_map(report, fig: Figure | None = None, title: str = "") -> Fig
 def plot_residual_correlations(report, fig: Figure | None = None) -> Figure:
     """z-scores of the correlation of each sensor's residuals with forcing and derived signals
     (Bartlett-corrected for autocorrelation; |z| > 3 is marked)."""
-    fig = new_figure(fig, (7.5, 3.2))
+    fig = new_figure(fig, (8.5, 4.2))
     ax = fig.subplots()
     names = list(report.sensors[0].correlations)
     Z = np.array([[s.correlations[n][1] for n in names] for s in report.sensors])
     lim = max(3.0, float(np.max(np.abs(Z))))
     m = ax.imshow(Z, cmap="PuOr_r", vmin=-lim, vmax=lim, aspect="auto")
-    ax.set_xticks(range(len(names)), names, rotation=30, ha="right", fontsize=8)
+    ax.set_xticks(range(len(names)), [SIGNAL_LABELS.get(n, n) for n in names], rotation=30,
+                  ha="right", fontsize=8)
     ax.set_yticks(range(len(report.labels)), report.labels)
     for i in range(Z.shape[0]):
         for j in range(Z.shape[1]):
             if abs(Z[i, j]) >= 3:
                 ax.text(j, i, f"{Z[i, j]:.0f}", ha="center", va="center", fontsize=7)
-    fig.colorbar(m, ax=ax, label="correlation z-score")
-    ax.set_title("residuals vs signals")
+    fig.colorbar(m, ax=ax, label="z of the correlation (|z| ≥ 3 written)")
+    ax.set_ylabel("sensor")
+    ax.set_title("residuals (predicted − measured) against the forcing and derived signals")
     return fig
 
 

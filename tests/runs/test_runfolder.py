@@ -76,7 +76,10 @@ def test_the_rule_is_frozen_and_round_trips_through_a_record():
     with pytest.raises(dataclasses.FrozenInstanceError):
         r.ess_target = 5  # type: ignore[misc]
     assert StoppingRule.from_dict(json.loads(json.dumps(r.to_dict()))) == r
-    assert StoppingRule.from_dict({"ess_target": 30, "unknown": 1}) == StoppingRule(ess_target=30)
+    assert StoppingRule.from_dict({"ess_target": 30, "unknown": 1, "geweke": True}) == \
+        StoppingRule(ess_target=30)
+    # a record from before Geweke joined the rule keeps the rule it was sampled under
+    assert StoppingRule.from_dict({"ess_target": 30}) == StoppingRule(ess_target=30, geweke=False)
     assert r.with_overrides(ess_target=None, min_tau_lengths=20) == dataclasses.replace(
         r, min_tau_lengths=20.0)
 
@@ -129,7 +132,7 @@ def test_old_format_runs_keep_the_rule_they_were_held_to(finished_run, tmp_path)
     cfg = f.read_config()
     del cfg["rule"]
     f.write_config(cfg)
-    held = StoppingRule(ess_target=30, rhat_max=1.02, min_tau_lengths=40, drift_z=3)
+    held = StoppingRule(ess_target=30, rhat_max=1.02, min_tau_lengths=40, drift_z=3, geweke=False)
     assert f.rule() == held
     assert load_view(f.path).assessment.rule == held
     assert stored_result(f.path).rule == held
