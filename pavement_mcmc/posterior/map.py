@@ -108,10 +108,24 @@ class Laplace:
         return np.sqrt(np.diag(self.cov))
 
 
+#: relative distance beyond a bound that :meth:`ScaledResiduals.theta` takes as rounding (a few
+#: hundred ulps; the Jacobian's steps are 1e-5 of a value)
+_ROUNDING = 1e-13
+
+
 class ScaledResiduals:
     """Whitened residuals of a batch of scaled points ``Z (n, k)`` at fixed gamma: the
     posterior's whitened data residuals (:meth:`LogPosterior.standardized_residuals`), then the
-    priors' residual rows (:class:`~pavement_mcmc.parameters.PriorResiduals`)."""
+    priors' residual rows (:class:`~pavement_mcmc.parameters.PriorResiduals`); a point outside
+    the bounds gets residuals of 1e6.
+
+    A ``z`` on its bound (``hi / scale``, ``log hi``) maps back to within rounding of the
+    parameter's bound, and for some scales just outside it (``(500 / s) s > 500`` for 15 % of
+    ``s``): :meth:`theta` puts such values on the bound. Taken as outside, the one-sided
+    Jacobian step onto the bound of an h at its upper bound 500 (the SoilVUE desert window with
+    ``two_layer``) gave that column 3e10; the Laplace precision's eigenvalue floor then made
+    every sd ~1e-7 of its value, and ``hmc`` never recovered from that metric (R-hat 2.4 after
+    700 steps)."""
 
     def __init__(self, posterior, theta_full: np.ndarray, idx, scale, logc):
         self.logc = logc
@@ -122,12 +136,19 @@ class ScaledResiduals:
         self.priors = self.space.prior_residuals()
         self.n_evals = 0
         self.n_res = getattr(posterior, "n_whitened", None) or posterior.obs.size
+        lo, hi = self.space.bounds()
+        self._lo, self._hi = lo[idx], hi[idx]
 
     def theta(self, Z: np.ndarray) -> np.ndarray:
         Z = np.atleast_2d(Z)
         th = np.repeat(self.base[None, :], Z.shape[0], axis=0)
-        with np.errstate(over="ignore"):
-            th[:, self.idx] = np.where(self.logc, np.exp(Z), Z * self.scale)
+        lo, hi = self._lo, self._hi
+        with np.errstate(over="ignore", invalid="ignore"):
+            v = np.where(self.logc, np.exp(Z), Z * self.scale)
+            tol = _ROUNDING * np.where(self.logc, np.maximum(np.abs(Z), 1.0), 1.0)  # exp: z's ulp
+            v = np.where((v > hi) & (v <= hi + tol * np.abs(hi)), hi, v)
+            v = np.where((v < lo) & (v >= lo - tol * np.abs(lo)), lo, v)
+        th[:, self.idx] = v
         return th
 
     def to_z(self, theta_idx: np.ndarray) -> np.ndarray:
