@@ -50,6 +50,10 @@ from pavement_mcmc.posterior import build_problem
 REPO = Path(__file__).resolve().parents[1]
 GRASS_IR = {"data": {"extras": "../../shared/data/goettingen_grass/extras.csv", "ir_sigma": 0.5}}
 NO_PLATE = {"data": {"plates": False}}
+#: the desert's infrared surface temperature observed over a footprint fraction (the
+#: desert_energy.toml before `shading`)
+DESERT_IR = {"data": {"extras": "../../shared/data/soilvue_utah/extras.csv", "ir_sigma": 0.5},
+             "parameters": {"ir_view": {"vary": True}}}
 #: record -> (label, case TOML, extensions instead of the TOML's (None: as is), overrides).
 #: The rows without the IR stream take the base TOMLs (no extras) with the energy balance named.
 CASES = {
@@ -66,7 +70,9 @@ CASES = {
                ("base + two_layer", "desert.toml", ["two_layer"], {}),
                ("energy_balance + two_layer, no IR", "desert.toml",
                 ["energy_balance", "two_layer"], {}),
-               ("desert_energy.toml: EB (window) + two_layer + IR, no LE", "desert_energy.toml", None,
+               ("EB (window) + two_layer + IR, no LE (before shading)", "desert_energy.toml",
+                ["energy_balance_window", "two_layer"], DESERT_IR),
+               ("desert_energy.toml: EB (window) + two_layer + shading, no LE", "desert_energy.toml", None,
                 {})],
 }
 DAY_H = 24.0
@@ -177,9 +183,11 @@ GAIN = {"grass": [("base (per-interval h)", "grass.toml", None, {}),
                     ["energy_balance_window"], {}),
                    ("energy_balance_window + two_layer, no LE, no IR", "desert.toml",
                     ["energy_balance_window", "two_layer"], DRY),
-                   ("energy_balance_window + two_layer + IR, no LE (desert_energy.toml)",
+                   ("energy_balance_window + two_layer + IR, no LE (before shading)",
+                    "desert_energy.toml", ["energy_balance_window", "two_layer"], DESERT_IR),
+                   ("energy_balance_window + two_layer + shading, no LE (desert_energy.toml)",
                     "desert_energy.toml", None, {}),
-                   ("energy_balance + two_layer + IR (daily alpha)", "desert_energy.toml",
+                   ("energy_balance + two_layer (daily alpha), no IR", "desert_energy.toml",
                     ["energy_balance", "two_layer"], WET)]}
 
 

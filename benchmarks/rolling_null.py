@@ -18,6 +18,8 @@ LE = alpha s/(s+gamma) max(R_n, 0)) against the free h of the twin's Case C form
     PYTHONPATH=. python benchmarks/rolling_null.py --report rolling_null.jsonl
     ... --clean 0 --wind 40 --base-ext wind_convection   (the true law as the base: the null of
                                                           a law nearly right)
+    ... --law energy_balance_window+shading --shade 10    (a law with a daily shadow: its null
+                                                          on clean twins, its power on shadows)
     PYTHONPATH=. python benchmarks/rolling_null.py --report docs/campaign/rolling_null_s600.jsonl.gz
 
 One JSON line per twin (resumed: twins in ``--out`` are skipped). Without OMP_NUM_THREADS=1
@@ -49,18 +51,19 @@ DAY_H = 24.0
 GRASS_SUM, GRASS_WINS, GRASS_LOG_RATIO = 48.3, 11, 0.78
 
 
-def one_twin(twin, root: Path, base_ext: str | None = None) -> dict:
+def one_twin(twin, root: Path, base_ext: str | None = None, law: str = CANDIDATE) -> dict:
     """Per-day forecast RMSEs and F of base and law over the twin's rolling windows
     (:func:`pavement_mcmc.criticism.rolling.rolling_forecast`, as ``pavement-mcmc rolling``)."""
     t0 = time.perf_counter()
     case = write_twin(twin, root / twin.name)
     base = f"{case}+{base_ext}" if base_ext else str(case)
-    res = rolling_forecast(base, f"{case}+{CANDIDATE}", days=WINDOWS)
+    res = rolling_forecast(base, f"{case}+{law}", days=WINDOWS)
     days = [{"F": d.F, "base": d.base_rmse, "cand": d.law_rmse, "base_in": d.base_fit,
              "cand_in": d.law_fit, "n_phi": d.n_phi} for d in res.days]
     return {"twin": twin.name, "category": twin.category, "hidden": list(twin.hidden),
             "days": days, "F_sum": res.F_sum, "wins": res.wins, "p_value": res.p_value,
-            "named": res.named, "base_ext": base_ext, "seconds": time.perf_counter() - t0}
+            "named": res.named, "base_ext": base_ext, "law": law,
+            "seconds": time.perf_counter() - t0}
 
 
 def report(records: list[dict]) -> None:
@@ -109,6 +112,11 @@ def main(argv=None) -> None:
     ap.add_argument("--wind", type=int, default=10, help="wind_convection twins (default 10)")
     ap.add_argument("--clean-from", type=int, default=600, help="first clean seed (600)")
     ap.add_argument("--wind-from", type=int, default=700, help="first wind seed (700)")
+    ap.add_argument("--shade", type=int, default=0, help="shading twins (default 0)")
+    ap.add_argument("--shade-from", type=int, default=900, help="first shading seed (900)")
+    ap.add_argument("--law", default=CANDIDATE, metavar="EXT[+EXT]",
+                    help=f"the law's extensions (default {CANDIDATE}; e.g. "
+                    f"{CANDIDATE}+shading)")
     ap.add_argument("--base-ext", metavar="EXT",
                     help="add EXT to the base case (wind_convection on wind twins: the true law "
                     "as the base, the null of a law with more in it than the truth)")
@@ -124,7 +132,9 @@ def main(argv=None) -> None:
     twins = (forecast_twins((), hours=hours, input_sigma=True,
                             seeds=tuple(range(a.clean_from, a.clean_from + a.clean)))
              + forecast_twins(("wind_convection",), hours=hours, input_sigma=True,
-                              seeds=tuple(range(a.wind_from, a.wind_from + a.wind))))
+                              seeds=tuple(range(a.wind_from, a.wind_from + a.wind)))
+             + forecast_twins(("shading",), hours=hours, input_sigma=True,
+                              seeds=tuple(range(a.shade_from, a.shade_from + a.shade))))
     done = set()
     if a.out.exists():
         done = {json.loads(ln)["twin"] for ln in a.out.read_text().splitlines() if ln.strip()}
@@ -132,7 +142,7 @@ def main(argv=None) -> None:
         for twin in twins:
             if twin.name in done:
                 continue
-            rec = one_twin(twin, Path(tmp), a.base_ext)
+            rec = one_twin(twin, Path(tmp), a.base_ext, a.law)
             with a.out.open("a") as fh:
                 fh.write(json.dumps(rec) + "\n")
             print(f"{rec['twin']}: F summed {rec['F_sum']:+.1f}, better on {rec['wins']} of "

@@ -1,0 +1,80 @@
+"""``shading``: a shadow at the same clock hours every day takes a share of the positive net
+radiation off the measured spot (physics/catalogue/shading.py). Recovered on forecast twins
+whose shadow the simulator makes its own way (pavement_mcmc.synthetic: a share of the absorbed
+short-wave, 10 min edges, clock hours 13.5-16.5), and absent from a clean twin."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from pavement_mcmc.criticism.entries import FORECAST_THRESHOLD
+from pavement_mcmc.criticism.forecast import forecast, forecast_gain
+from pavement_mcmc.data import load_case
+from pavement_mcmc.physics import candidate_names
+from pavement_mcmc.physics.catalogue.shading import record_midday, shade
+from pavement_mcmc.posterior import build_problem
+from pavement_mcmc.synthetic.corpus import forecast_twins, write_twin
+
+
+def test_shade_is_the_clock_interval_with_ramped_edges_and_wraps_midnight():
+    h = np.arange(-12.0, 12.0, 0.25)
+    s = shade(h, np.array([1.0, 4.0]), np.array([4.0, -4.0]), 0.5)
+    afternoon, wide = s
+    assert np.all(afternoon[(h > 1.25) & (h < 3.75)] == 1.0)
+    assert np.all(afternoon[(h < 0.75) | (h > 4.25)] == 0.0)
+    assert afternoon[h == 1.0] == 0.5 and afternoon[h == 4.0] == 0.5
+    # from 4 h after midday through the night to 4 h before it: the sun only around midday
+    assert np.all(wide[np.abs(h) < 3.75] == 0.0) and np.all(wide[np.abs(h) > 4.25] == 1.0)
+
+
+def test_midday_is_the_net_radiations_daily_peak():
+    t = np.arange(0, 3 * 86400.0, 1800.0)
+    q = np.maximum(600.0 * np.cos(2 * np.pi * (t / 3600.0 - 19.5) / 24.0), -80.0)
+
+    class M:
+        time0, q_net = "2025-07-11T00:00:00Z", q
+    M.t = t
+    assert abs(record_midday(M) - 19.5) < 0.05
+
+
+def _fit(tmp_path, effects, seed):
+    twin = forecast_twins(effects, (seed,), hours=40.0, input_sigma=True)[0]
+    case = write_twin(twin, tmp_path / twin.name)
+    base = forecast(build_problem(load_case(case)))
+    pb = build_problem(load_case(case, additions={"model": {"extensions": ["shading"]}}))
+    starts = pb.model.extensions[-1].start_values(pb.meas, None)
+    fc = min((forecast(pb, st) for st in starts), key=lambda f: f.fits[-1].objective)
+    return forecast_gain(base, fc), fc.fits[-1].values(), record_midday(pb.meas), twin
+
+
+def test_a_shadow_twin_gives_its_hours_and_a_forecast_gain(tmp_path):
+    """Measured (seed 3700): edges 1.10 / 4.16 h after midday against the true 1.19 / 4.19,
+    share 0.87 of the positive net radiation (the twin's shadow takes 0.6 of the short-wave,
+    which is less than the net radiation), F 99.6 against the base's free h(t)."""
+    F, v, midday, twin = _fit(tmp_path, ("shading",), 3700)
+    truth = twin.spec.effects["shading"]
+    start = truth.get("shade_start", 13.5) - midday
+    end = truth.get("shade_end", 16.5) - midday
+    assert abs(v["shade_start"] - start) < 0.3 and abs(v["shade_end"] - end) < 0.3, (v, start, end)
+    assert 0.5 < v["shade_fraction"] < 1.2, v
+    assert F > FORECAST_THRESHOLD, F
+
+
+def test_no_shadow_on_a_clean_twin(tmp_path):
+    """Measured (seed 3600): share 0.06, F -2.9."""
+    F, v, _, _ = _fit(tmp_path, (), 3600)
+    assert v["shade_fraction"] < 0.25, v
+    assert F < FORECAST_THRESHOLD, F
+
+
+def test_named_only_and_needs_the_net_radiation():
+    from types import SimpleNamespace
+
+    from pavement_mcmc.physics.catalogue.shading import Shading
+
+    assert "shading" not in candidate_names()
+    night = SimpleNamespace(t=np.arange(0.0, 7200.0, 1800.0), q_net=np.full(4, -50.0),
+                            time0="2025-07-11T00:00:00Z")
+    with pytest.raises(ValueError, match="net radiation"):
+        Shading().parameters(night)
