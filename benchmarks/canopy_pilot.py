@@ -28,7 +28,7 @@ import tempfile
 import time
 from pathlib import Path
 
-from pavement_mcmc.criticism.forecast import forecast, forecast_gain
+from pavement_mcmc.criticism.forecast import forecast, forecast_from_starts, forecast_gain
 from pavement_mcmc.data import load_case
 from pavement_mcmc.posterior import build_problem
 from pavement_mcmc.synthetic.corpus import forecast_twins, write_twin
@@ -48,7 +48,7 @@ def one(twin, root: Path) -> dict:
         pb = build_problem(load_case(case, additions={"model": {"extensions": [ext]}}))
         # the extension's own starts (as the ranking's refits use them), the best training fit
         own = pb.model.extensions[-1].start_values(pb.meas, None) or [None]
-        fc = min((forecast(pb, st) for st in own), key=lambda f: f.fits[-1].objective)
+        fc = forecast_from_starts(pb, own)
         out[ext] = {"F": forecast_gain(base, fc), "rmse": fc.rmse,
                     "values": {k: v for k, v in fc.fits[-1].values().items()
                                if k in ("R_surface", "R_canopy", "c_canopy")}}

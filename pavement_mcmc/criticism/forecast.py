@@ -268,6 +268,13 @@ def forecast(problem, start: dict[str, float] | None = None, *, origins=None,
     )
 
 
+def forecast_from_starts(problem, starts, **kw) -> Forecast:
+    """:func:`forecast` from each starting point of ``starts`` (e.g. an extension's
+    ``start_values``), the one whose last training refit reached the lowest objective."""
+    return min((forecast(problem, st, **kw) for st in starts),
+               key=lambda f: f.fits[-1].objective)
+
+
 def forecast_gain(base: Forecast, cand: Forecast) -> float:
     r"""The claim statistic of a candidate's forecast against the base model's, on the deviance
     scale of the in-sample score: the Gaussian likelihood ratio of the held-out errors with each

@@ -13,7 +13,7 @@ import pytest
 
 from pavement_mcmc.criticism.calibration import found
 from pavement_mcmc.criticism.entries import FORECAST_THRESHOLD
-from pavement_mcmc.criticism.forecast import forecast, forecast_gain
+from pavement_mcmc.criticism.forecast import forecast, forecast_from_starts, forecast_gain
 from pavement_mcmc.data import load_case
 from pavement_mcmc.physics import candidate_names
 from pavement_mcmc.posterior import build_problem
@@ -26,7 +26,7 @@ def _canopy(tmp_path, effects, seed):
     base = forecast(build_problem(load_case(case)))
     pb = build_problem(load_case(case, additions={"model": {"extensions": ["canopy"]}}))
     starts = pb.model.extensions[-1].start_values(pb.meas, None)
-    fc = min((forecast(pb, st) for st in starts), key=lambda f: f.fits[-1].objective)
+    fc = forecast_from_starts(pb, starts)
     return forecast_gain(base, fc), fc.fits[-1].values()
 
 

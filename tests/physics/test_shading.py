@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from pavement_mcmc.criticism.entries import FORECAST_THRESHOLD
-from pavement_mcmc.criticism.forecast import forecast, forecast_gain
+from pavement_mcmc.criticism.forecast import forecast, forecast_from_starts, forecast_gain
 from pavement_mcmc.data import load_case
 from pavement_mcmc.physics import candidate_names
 from pavement_mcmc.physics.catalogue.shading import record_midday, shade
@@ -44,7 +44,7 @@ def _fit(tmp_path, effects, seed):
     base = forecast(build_problem(load_case(case)))
     pb = build_problem(load_case(case, additions={"model": {"extensions": ["shading"]}}))
     starts = pb.model.extensions[-1].start_values(pb.meas, None)
-    fc = min((forecast(pb, st) for st in starts), key=lambda f: f.fits[-1].objective)
+    fc = forecast_from_starts(pb, starts)
     return forecast_gain(base, fc), fc.fits[-1].values(), record_midday(pb.meas), twin
 
 
