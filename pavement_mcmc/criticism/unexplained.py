@@ -125,7 +125,9 @@ class Unexplained:
             lines.append(f"At {self.sensor} the leftover is concentrated at {_hours(self.hours)} h "
                          f"UTC ({100 * self.hours_share:.0f} % of its mean square in {len(self.hours)} "
                          "of 24 hours): something that happens at those hours every day (shade, "
-                         "irrigation, a schedule), which smooth daily signals do not follow.")
+                         "irrigation, a schedule), which smooth daily signals do not follow; "
+                         "a shadow at fixed clock hours is the shipped `shading` (--add shading, "
+                         "with a law for h such as energy_balance: a free h(t) absorbs it).")
         if self.follows is not None:
             sig, r, z = self.follows
             lines.append(f"At {self.sensor} the residual follows {sig} most (r = {r:+.2f}, z = {z:+.1f}): "

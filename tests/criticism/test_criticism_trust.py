@@ -98,6 +98,7 @@ def test_off_catalogue_twins_get_none_of_these(tmp_path, name, candidates, senso
         assert un.steady and "steady offset" in un.text()
     if "shading" in name:  # the afternoon shade: the leftover sits at those clock hours
         assert set(un.hours) & {13, 14, 15, 16} and "concentrated at" in un.text()
+        assert "--add shading" in un.text()  # the shipped law for a shadow at fixed hours
     text = un.text()
     assert "q_net+" in text and "T_air-T_s" in text and "dT_s/dt" in text
 
