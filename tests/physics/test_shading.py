@@ -78,3 +78,24 @@ def test_named_only_and_needs_the_net_radiation():
                             time0="2025-07-11T00:00:00Z")
     with pytest.raises(ValueError, match="net radiation"):
         Shading().parameters(night)
+
+
+def test_the_energy_partition_keeps_the_shadow_out_of_the_sensible_heat(tmp_path):
+    """With a shadow H is the law's h (T_s - T_air), and what the shadow keeps off the spot is
+    its own term (before, H was the rest Rn - LE - G and took the shadow in)."""
+    from pavement_mcmc.physics.catalogue.energy import energy_partition
+
+    twin = forecast_twins(("shading",), (3700,), hours=40.0)[0]
+    case = write_twin(twin, tmp_path / twin.name)
+    pb = build_problem(load_case(case, additions={"model": {
+        "extensions": ["energy_balance_window", "shading"]}}))
+    p = {k: np.array([v]) for k, v in pb.space.value_dict().items()}
+    p.update(shade_start=np.array([1.0]), shade_end=np.array([4.0]),
+             shade_fraction=np.array([0.8]))
+    part = energy_partition(pb.model, p)
+    T_s = pb.model.solve(p)[..., 0]
+    hH = pb.model.extensions[0].transfer(p, pb.meas)
+    np.testing.assert_allclose(part.H[:, 1:], (0.5 * (hH[:, 1:] + hH[:, :-1]))
+                               * (T_s - pb.meas.T_air)[:, 1:], rtol=1e-9, atol=1e-9)
+    np.testing.assert_allclose(part.H + part.LE + part.G + part.off, part.Rn, atol=1e-9)
+    assert part.off.max() > 50.0 and "off_Rn" in part.midday()

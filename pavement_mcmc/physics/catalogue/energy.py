@@ -149,9 +149,10 @@ class Partition:
     """The surface energy balance a fit implies, W m-2, each (n_sets, n_obs).
 
     ``Rn`` the recorded net radiation (the same for every set), ``H`` sensible and ``LE`` latent
-    heat leaving the surface, ``G`` the heat flux into the soil (``Rn = H + LE + G``; with a
-    ``surface_layer`` its storage is neglected as in the model; with a ``canopy`` ``G`` enters
-    the canopy skin: the canopy's storage and the soil's flux together).
+    heat leaving the surface, ``G`` the heat flux into the soil (``Rn = H + LE + G + off``; with
+    a ``surface_layer`` its storage is neglected as in the model; with a ``canopy`` ``G`` enters
+    the canopy skin: the canopy's storage and the soil's flux together). ``off``: the radiation
+    other surface terms keep off the spot (a ``shading`` shadow; zero without them).
     """
 
     t: np.ndarray
@@ -159,6 +160,7 @@ class Partition:
     H: np.ndarray
     LE: np.ndarray
     G: np.ndarray
+    off: np.ndarray | None = None
 
     def midday(self) -> dict[str, np.ndarray]:
         """Ratios of sums over the midday rows (``R_n`` above half its maximum), one per set:
@@ -167,8 +169,11 @@ class Partition:
         rows = q > 0.5 * max(float(q.max()), 1e-9)
         s = {k: getattr(self, k)[:, rows].sum(axis=1) for k in ("Rn", "H", "LE", "G")}
         with np.errstate(divide="ignore", invalid="ignore"):
-            return {"bowen": s["H"] / s["LE"], "G_Rn": s["G"] / s["Rn"],
-                    "LE_Rn": s["LE"] / s["Rn"], "H_Rn": s["H"] / s["Rn"]}
+            out = {"bowen": s["H"] / s["LE"], "G_Rn": s["G"] / s["Rn"],
+                   "LE_Rn": s["LE"] / s["Rn"], "H_Rn": s["H"] / s["Rn"]}
+        if self.off is not None and np.max(np.abs(self.off)) > 1e-6 * np.max(np.abs(self.Rn)):
+            out["off_Rn"] = self.off[:, rows].sum(axis=1) / s["Rn"]
+        return out
 
 
     def summary(self, level: float = 95.0) -> dict[str, tuple[float, float, float]]:
@@ -191,7 +196,8 @@ class Partition:
 
 
 #: the midday ratios of :meth:`Partition.midday`, as a table or a line names them
-MIDDAY_NAMES = {"bowen": "Bowen ratio H/LE", "G_Rn": "G/Rn", "LE_Rn": "LE/Rn", "H_Rn": "H/Rn"}
+MIDDAY_NAMES = {"bowen": "Bowen ratio H/LE", "G_Rn": "G/Rn", "LE_Rn": "LE/Rn", "H_Rn": "H/Rn",
+                "off_Rn": "kept off the spot (shadow)/Rn"}
 
 
 def energy_partition(model, p: dict[str, np.ndarray]) -> Partition:
@@ -205,4 +211,5 @@ def energy_partition(model, p: dict[str, np.ndarray]) -> Partition:
     G = model.surface_flux(model.solve(p), coeffs)
     Rn = np.broadcast_to(np.asarray(model.meas.q_net, float), G.shape)
     LE = ext.latent(p, model.meas)
-    return Partition(model.meas.t, Rn, Rn - LE - G, LE, G)
+    H = coeffs.q - G  # G = h (T_air - T_s) + q: H = h (T_s - T_air), the law's own
+    return Partition(model.meas.t, Rn, H, LE, G, Rn - H - LE - G)
