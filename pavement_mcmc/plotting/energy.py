@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import textwrap
+
 import numpy as np
 from matplotlib.figure import Figure
 
@@ -11,7 +13,7 @@ from ._base import hours, new_figure, time_label
 __all__ = ["plot_energy_balance"]
 
 _FLUXES = (("H", "sensible heat H", "C3"), ("LE", "latent heat LE", "C0"),
-           ("G", "ground heat G", "C5"))
+           ("G", "ground heat G", "C5"), ("off", "kept off the spot (shadow)", "0.55"))
 
 
 def _band(ax, x, draws, colour, label, level):
@@ -43,6 +45,7 @@ def plot_energy_balance(
     summary: str = "",
     level: float = 95.0,
     fig: Figure | None = None,
+    off: np.ndarray | None = None,
 ) -> Figure:
     """H, LE and G through the window and through the mean day, beside the net radiation.
 
@@ -54,33 +57,42 @@ def plot_energy_balance(
         the ground, W m-2, for posterior (or Laplace) draws
         (:func:`~pavement_mcmc.physics.catalogue.energy.energy_partition`).
     time0 : ISO 8601 UTC time of ``t = 0``: the right panel then averages by UTC clock hour.
-    summary : a line printed under the panels (e.g. the midday Bowen ratio and G/Rn).
+    summary : a line printed above the panels (e.g. the midday Bowen ratio and G/Rn), wrapped.
     level : credible level of the bands, %.
+    off : (n_draws, n_obs) the net radiation other surface terms keep off the spot (a
+        ``shading`` shadow), drawn when given: then Rn = H + LE + G + off.
     """
     t = hours(t_obs)
     draws = {k: np.atleast_2d(np.asarray(v, float)) for k, v in (("H", H), ("LE", LE), ("G", G))}
+    if off is not None:
+        draws["off"] = np.atleast_2d(np.asarray(off, float))
+    fluxes = [f for f in _FLUXES if f[0] in draws]
     fig = new_figure(fig, (12, 4.6))
     ax, ax2 = fig.subplots(1, 2, width_ratios=[2.2, 1])
     ax.plot(t, Rn, color="k", lw=1.2, label="net radiation Rn (measured)")
-    for key, label, colour in _FLUXES:
+    for key, label, colour in fluxes:
         _band(ax, t, draws[key], colour, label, level)
     ax.axhline(0, color="0.5", lw=0.8)
     ax.set_xlabel(time_label(time0))
-    ax.set_ylabel("flux (W m⁻²): Rn = H + LE + G")
+    ax.set_ylabel("flux (W m⁻²): Rn = H + LE + G" + (" + off" if "off" in draws else ""))
     ax.set_title(f"Through the window ({level:g} % bands)")
-    ax.legend(fontsize=8, loc="upper left")
+    top = 1.5 * float(np.nanmax(Rn)) if np.nanmax(Rn) > 0 else None  # room for the legends
+    ax.set_ylim(top=top)
+    ax.legend(fontsize=8, loc="upper left", ncol=2)
     hod = hour_of_day(time0, t_obs) if time0 else np.mod(t, 24.0)
     step = max(float(np.median(np.diff(t))), 0.5)
     x, rn = _diurnal(hod, np.asarray(Rn, float)[None, :], step)
     ax2.plot(x, rn[0], color="k", lw=1.2, label="Rn")
-    for key, _label, colour in _FLUXES:
+    for key, _label, colour in fluxes:
         _band(ax2, x, _diurnal(hod, draws[key], step)[1], colour, key, level)
     ax2.axhline(0, color="0.5", lw=0.8)
     ax2.set_xlim(0, 24)
     ax2.set_xticks(range(0, 25, 6))
     ax2.set_xlabel("hour of the day (UTC)" if time0 else "hour of the day")
     ax2.set_title("Mean day")
-    ax2.legend(fontsize=8, loc="upper left")
-    fig.suptitle("Surface energy balance implied by the fit" + (f"\n{summary}" if summary else ""),
+    ax2.set_ylim(top=top)
+    ax2.legend(fontsize=8, loc="upper left", ncol=3)
+    wrapped = "\n".join(textwrap.wrap(summary, 150)) if summary else ""
+    fig.suptitle("Surface energy balance implied by the fit" + (f"\n{wrapped}" if wrapped else ""),
                  fontsize=9)
     return fig

@@ -24,10 +24,12 @@ def energy_section(problem, view, n_draws: int = 100):
     frag = ("<p>The net radiation Rn (measured) split by the fitted laws into sensible heat H "
             "(bulk transfer with the wind, or the no-wind fallback), latent heat LE "
             "(Priestley–Taylor, one coefficient per day) and the heat flux into the ground G = "
-            "Rn − H − LE. Midday: the rows where Rn exceeds half its maximum (ratios of sums). "
+            "Rn − H − LE (less what a shadow keeps off the spot, with <code>shading</code>). Midday: "
+            "the rows where Rn exceeds half its maximum (ratios of sums). "
             "Over April grass LE/Rn is typically 0.5–0.8 and G/Rn 0.05–0.2; over dry bare soil "
             "LE is small and G/Rn 0.2–0.4.</p><table><tr><th>at midday</th><th>median</th>"
             "<th>2.5 %</th><th>97.5 %</th></tr>" + rows + "</table>")
+    off = part.off if "off_Rn" in part.midday() else None  # a shadow's own curve, if any
     fig = plot_energy_balance(problem.meas.t, part.Rn[0], part.H, part.LE, part.G,
-                              problem.meas.time0, part.summary_text())
+                              problem.meas.time0, part.summary_text(), off=off)
     return frag, [fig]
