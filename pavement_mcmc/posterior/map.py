@@ -9,8 +9,9 @@ The negative log-posterior of the model is written as half a sum of squares,
 (whitened residuals, one row per Gaussian prior, and the smoothness prior as residuals), and
 minimised with :func:`scipy.optimize.least_squares` (trust-region reflective, within the bounds)
 in scaled coordinates ``z = theta / scale``. The Jacobian is central finite differences of all
-``2 d`` perturbed sets in ONE vectorised posterior call. Flat and uniform priors contribute no
-rows; other priors are ignored by the fit (the samplers still use the exact posterior).
+``2 d`` perturbed sets in ONE vectorised posterior call (one-sided within a step of a bound).
+Flat and uniform priors contribute no rows; other priors are ignored by the fit (the samplers
+still use the exact posterior).
 
 The smoothness precision :math:`\gamma` (Case C) is not fitted jointly: the joint mode over
 ``h`` and :math:`\gamma` drifts to large :math:`\gamma` (the :math:`\gamma^{(N-1)/2}` factor
@@ -125,7 +126,14 @@ class ScaledResiduals:
     Jacobian step onto the bound of an h at its upper bound 500 (the SoilVUE desert window with
     ``two_layer``) gave that column 3e10; the Laplace precision's eigenvalue floor then made
     every sd ~1e-7 of its value, and ``hmc`` never recovered from that metric (R-hat 2.4 after
-    700 steps)."""
+    700 steps).
+
+    :meth:`jac` (also :func:`~pavement_mcmc.posterior.marginal.find_marginal_map`'s) steps
+    one-sidedly where a bound is closer than the step. A central step across the bound scored
+    1e6 and gave that column ~5e10, and a parameter that reached its bound stayed there: the
+    desert window's MAP stopped at C = 1e4 (its lower bound, kappa 0.0035; now C 6.8e5, kappa
+    0.24), ``fit --add two_layer``'s start at C2 = 100008 (kappa 0.037), and a mode within a
+    step of a bound got Laplace sds ~1e-7 of their value."""
 
     def __init__(self, posterior, theta_full: np.ndarray, idx, scale, logc):
         self.logc = logc
@@ -138,6 +146,9 @@ class ScaledResiduals:
         self.n_res = getattr(posterior, "n_whitened", None) or posterior.obs.size
         lo, hi = self.space.bounds()
         self._lo, self._hi = lo[idx], hi[idx]
+        with np.errstate(divide="ignore", invalid="ignore"):  # log 0 = -inf: no bound on z
+            self.lo_z = np.where(logc, np.log(self._lo), self._lo / scale)
+            self.hi_z = np.where(logc, np.log(self._hi), self._hi / scale)
 
     def theta(self, Z: np.ndarray) -> np.ndarray:
         Z = np.atleast_2d(Z)
@@ -171,13 +182,16 @@ class ScaledResiduals:
         return np.where(np.isfinite(out), out, 1e6)
 
     def jac(self, z: np.ndarray, gamma: float, rel: float = 1e-5) -> np.ndarray:
+        """Central differences of the residuals in ``z`` (steps ``rel * max(|z|, 1)``), one-sided
+        where a bound is closer than the step (a parameter on or next to its bound)."""
         k = z.size
         step = rel * np.maximum(np.abs(z), 1.0)
+        zp, zm = np.minimum(z + step, self.hi_z), np.maximum(z - step, self.lo_z)
         Z = np.repeat(z[None, :], 2 * k, axis=0)
-        Z[np.arange(k), np.arange(k)] += step
-        Z[k + np.arange(k), np.arange(k)] -= step
+        Z[np.arange(k), np.arange(k)] = zp
+        Z[k + np.arange(k), np.arange(k)] = zm
         R = self(Z, gamma)
-        return ((R[:k] - R[k:]) / (2 * step[:, None])).T
+        return ((R[:k] - R[k:]) / np.where(zp > zm, zp - zm, step)[:, None]).T
 
 
 def parameter_scales(space, idx, theta0) -> np.ndarray:

@@ -259,12 +259,12 @@ def find_marginal_map(posterior, table: MarginalGMRF, theta0=None, *, em_max_ite
     for it in range(em_max_iter):
         fit = optimize.least_squares(
             lambda v, g=gamma: res_fn(v[None, :], g)[0], z,
-            jac=lambda v, g=gamma: _jac_inside(res_fn, v, lo_z, hi_z, g), bounds=(lo_z, hi_z),
+            jac=lambda v, g=gamma: res_fn.jac(v, g), bounds=(lo_z, hi_z),
             method="trf", x_scale=1.0, max_nfev=max_nfev if it else 4 * max_nfev,
             xtol=XTOL, ftol=XTOL)
         z, msg = fit.x, fit.message
         h = z[gcols] * scale[gcols]
-        J = _jac_inside(res_fn, z, lo_z, hi_z, gamma)
+        J = res_fn.jac(z, gamma)
         cov = _cov_z(J.T @ J) * np.outer(scale, scale)
         Sig = cov[np.ix_(gcols, gcols)]
         S_eff = float(np.sum(np.diff(h) ** 2) + np.trace(D @ Sig @ D.T))
@@ -281,7 +281,7 @@ def find_marginal_map(posterior, table: MarginalGMRF, theta0=None, *, em_max_ite
         gamma = new  # out of iterations: the last plain step, not an untried jump
     # Laplace at that gamma: Gauss-Newton of data + Gaussian priors + gamma D^T D (with
     # ``laplace_em``), else the exact Hessian of -log F at the marginal mode
-    J = _jac_inside(res_fn, z, lo_z, hi_z, gamma if laplace_em else 0.0)
+    J = res_fn.jac(z, gamma if laplace_em else 0.0)
     if laplace_em:
         Pz = J.T @ J
     else:
@@ -318,20 +318,6 @@ def _aitken(steps: list, lower: float, upper: float) -> float:
                 steps.clear()
                 return float(np.exp(jump))
     return float(np.exp(steps[-1][1]))
-
-
-def _jac_inside(res_fn, z, lo_z, hi_z, gamma: float, rel: float = 1e-5) -> np.ndarray:
-    """Central differences of the residuals (smoothness rows times sqrt(gamma)), one-sided where a
-    bound is closer than the step (a parameter at its bound, e.g. h = 0 at night)."""
-    k = z.size
-    step = rel * np.maximum(np.abs(z), 1.0)
-    zp = np.minimum(z + step, hi_z)
-    zm = np.maximum(z - step, lo_z)
-    Z = np.repeat(z[None, :], 2 * k, axis=0)
-    Z[np.arange(k), np.arange(k)] = zp
-    Z[k + np.arange(k), np.arange(k)] = zm
-    R = res_fn(Z, gamma)
-    return ((R[:k] - R[k:]) / (zp - zm)[:, None]).T
 
 
 def _cov_z(P: np.ndarray) -> np.ndarray:
