@@ -219,3 +219,23 @@ def test_the_midday_line_says_when_the_bowen_ratio_is_undefined():
     text = part.summary_text()
     assert "nan" not in text and "Bowen ratio H/LE undefined (no latent heat)" in text
     assert "G/Rn 0.30" in text and "LE/Rn 0.00" in text
+
+
+def test_partition_with_a_surface_layer_is_the_skin_balance(twin):
+    """With ``surface_layer`` (coeffs.h and coeffs.q damped by 1 + hR) H is still the skin's
+    H = Rn - LE - G = h_H (T_k - T_a), and nothing is 'kept off the spot' without a shadow."""
+    pb, _ = twin
+    from pavement_mcmc.physics.skin import skin_temperature
+    m = Model(pb.meas, pb.model.grid, pb.model.h_basis, ["energy_balance", "surface_layer"])
+    p = {k: np.array([v]) for k, v in pb.space.value_dict().items()}
+    p["R_surface"] = np.array([0.3])
+    part = energy_partition(m, p)
+    assert np.max(np.abs(part.off)) == 0.0
+    assert "off_Rn" not in part.midday()
+    np.testing.assert_allclose(part.H + part.LE + part.G, part.Rn, atol=1e-9)
+    co = m.coefficients(p)
+    T_k = skin_temperature(m, m.solve(p), co, p)
+    hH = p["eb_h0"][:, None] + p["eb_h1"][:, None] * m.meas.wind[None, :]
+    law = hH * (T_k - m.meas.T_air)  # at the times (the model's h is per interval: ~ 5 %)
+    day = m.meas.q_net > 0.5 * m.meas.q_net.max()
+    assert part.H[0, day].sum() == pytest.approx(law[0, day].sum(), rel=0.05)

@@ -211,5 +211,10 @@ def energy_partition(model, p: dict[str, np.ndarray]) -> Partition:
     G = model.surface_flux(model.solve(p), coeffs)
     Rn = np.broadcast_to(np.asarray(model.meas.q_net, float), G.shape)
     LE = ext.latent(p, model.meas)
-    H = coeffs.q - G  # G = h (T_air - T_s) + q: H = h (T_s - T_air), the law's own
-    return Partition(model.meas.t, Rn, H, LE, G, Rn - H - LE - G)
+    # what a shadow keeps off the spot, by its own law; H the rest of the skin's balance
+    # (Rn - off - LE - H = G: with a surface_layer coeffs.q - G is not the law's H)
+    off = np.zeros(G.shape)
+    for e in model.extensions:
+        if hasattr(e, "kept_off"):
+            off = off + e.kept_off(p, model)
+    return Partition(model.meas.t, Rn, Rn - off - LE - G, LE, G, off)

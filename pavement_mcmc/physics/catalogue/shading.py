@@ -94,6 +94,10 @@ class Shading(Extension):
                 for a, b in ((2.5, -2.5), (3.5, -3.5), (4.5, -4.5), (1.0, 4.0), (-4.0, -1.0))]
 
     def surface(self, coeffs, p, model):
+        coeffs.q -= self.kept_off(p, model)
+
+    def kept_off(self, p, model) -> np.ndarray:
+        """The net radiation the shadow keeps off the spot (n_sets, n_obs), W m-2."""
         meas = model.meas
         hours = np.mod(hour_of_day(meas.time0, meas.t) - record_midday(meas) + 12.0,
                        DAY_H) - 12.0
@@ -101,4 +105,4 @@ class Shading(Extension):
         s = shade(hours, np.asarray(p["shade_start"], float),
                   np.asarray(p["shade_end"], float), max(step, 1.0 / 6.0))
         qp = np.clip(np.asarray(meas.q_net, float), 0.0, None)
-        coeffs.q -= np.asarray(p["shade_fraction"], float)[:, None] * s * qp[None, :]
+        return np.asarray(p["shade_fraction"], float)[:, None] * s * qp[None, :]
