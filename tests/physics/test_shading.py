@@ -99,3 +99,16 @@ def test_the_energy_partition_keeps_the_shadow_out_of_the_sensible_heat(tmp_path
                                * (T_s - pb.meas.T_air)[:, 1:], rtol=1e-9, atol=1e-9)
     np.testing.assert_allclose(part.H + part.LE + part.G + part.off, part.Rn, atol=1e-9)
     assert part.off.max() > 50.0 and "off_Rn" in part.midday()
+
+
+def test_shading_refuses_a_measured_top_and_a_window_without_sun():
+    from types import SimpleNamespace
+
+    import pytest as _pytest
+
+    from pavement_mcmc.physics.catalogue.shading import Shading
+    t = np.arange(0.0, 86400.0, 3600.0)
+    with _pytest.raises(ValueError, match="measured top"):
+        Shading().parameters(SimpleNamespace(T_top=np.zeros(t.size), q_net=np.ones(t.size), t=t))
+    with _pytest.raises(ValueError, match="never positive"):
+        Shading().parameters(SimpleNamespace(T_top=None, q_net=-np.ones(t.size), t=t))

@@ -74,9 +74,16 @@ class Shading(Extension):
     signals = ("corr:tod_sin", "corr:tod_cos", "corr:q_net")
 
     def parameters(self, meas):
+        if getattr(meas, "T_top", None) is not None:
+            raise ValueError(f"{self.name} acts on the surface energy balance, but a measured top "
+                             "has none (its top node is a buried sensor): the shadow's "
+                             "parameters would not enter the likelihood")
         q = getattr(meas, "q_net", None)
-        if q is None or not np.any(np.asarray(q, float) > 0.0):
+        if q is None:
             raise ValueError(f"{self.name} needs the net radiation (a 'q_net' column, W m-2)")
+        if not np.any(np.asarray(q, float) > 0.0):
+            raise ValueError(f"{self.name}: q_net is never positive in the window: a shadow "
+                             "takes a share of the positive net radiation, there is none")
         return [
             Parameter("shade_start", 4.0, -12.0, 12.0, prior=Uniform(-12.0, 12.0), unit="h",
                       description="the shadow begins, hours after the record's midday"),
