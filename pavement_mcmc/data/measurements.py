@@ -42,6 +42,9 @@ class Measurements:
         name says), ``LE``, ``H`` (measured turbulent fluxes, W m-2, upward) — from the case CSV
         or a second CSV merged on time (``[data] extras``); see
         :data:`pavement_mcmc.data.extras.EXTRA_ROLES`.
+    midday : UTC clock hour (0-24) of the daily peak of ``q_net`` over every row of the file the
+        window was cut from (:func:`~pavement_mcmc.data.times.daily_peak_hour`), so that every
+        window, training part and forecast of one record share it; None if not known.
     """
 
     t: np.ndarray
@@ -62,6 +65,7 @@ class Measurements:
     T_top: np.ndarray | None = None
     depth_offset: float = 0.0
     extras: Mapping[str, np.ndarray] = field(default_factory=lambda: MappingProxyType({}))
+    midday: float | None = None
 
     @property
     def n_plates(self) -> int:

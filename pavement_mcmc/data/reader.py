@@ -55,7 +55,7 @@ from .extras import EXTRA_ROLES, check_extra, merge_extras
 from .fluxsite import apply_preset
 from .measurements import Measurements
 from .table import read_table
-from .times import format_time
+from .times import daily_peak_hour, format_time
 
 __all__ = ["DataError", "read_csv_case"]
 
@@ -194,6 +194,7 @@ def read_csv_case(
     for arr in named.values():
         arr.flags.writeable = False
     time0 = format_time(stamps[idx[0]])
+    midday = _file_midday(table, roles.get("q_net"), stamps)
     arrays = dict(
         t=t,
         T_air=T_air,
@@ -216,8 +217,23 @@ def read_csv_case(
         source=path,
         fill_report=tuple(fills),
         extras=MappingProxyType(named),
+        midday=midday,
         **arrays,
     )
+
+
+def _file_midday(table: _Table, col: int | None, stamps: np.ndarray) -> float | None:
+    """The daily peak hour of ``q_net`` over every row of the file (unparsable or missing cells
+    left out): one reference for every window cut from the record."""
+    if col is None:
+        return None
+    q = np.full(len(table.rows), np.nan)
+    for i, row in enumerate(table.rows):
+        try:
+            q[i] = float(row[col])
+        except (ValueError, IndexError):
+            pass
+    return daily_peak_hour(np.mod(stamps / 3600.0, 24.0), q)
 
 
 def _plate_block(plates: dict[str, np.ndarray], depth_bot: float, table: _Table, roles):

@@ -47,3 +47,15 @@ def hour_of_day(time0: str, t: np.ndarray) -> np.ndarray:
     start = parse_time(time0)
     h0 = start.hour + start.minute / 60 + start.second / 3600
     return np.mod(h0 + np.asarray(t, float) / 3600.0, 24.0)
+
+
+def daily_peak_hour(hours_utc: np.ndarray, values: np.ndarray) -> float | None:
+    """UTC clock hour (0-24) at which the 24 h harmonic of ``values`` peaks (their finite
+    entries, at UTC clock hours ``hours_utc``); None when nothing is finite."""
+    v = np.asarray(values, float)
+    ok = np.isfinite(v)
+    if not ok.any():
+        return None
+    w = 2.0 * np.pi * np.asarray(hours_utc, float)[ok] / 24.0
+    c, s = np.sum(v[ok] * np.cos(w)), np.sum(v[ok] * np.sin(w))
+    return float(np.mod(np.arctan2(s, c) * 24.0 / (2.0 * np.pi), 24.0))

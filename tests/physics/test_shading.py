@@ -45,14 +45,18 @@ def _fit(tmp_path, effects, seed):
     pb = build_problem(load_case(case, additions={"model": {"extensions": ["shading"]}}))
     starts = pb.model.extensions[-1].start_values(pb.meas, None)
     fc = forecast_from_starts(pb, starts)
-    return forecast_gain(base, fc), fc.fits[-1].values(), record_midday(pb.meas), twin
+    v = fc.fits[-1].values()
+    off = pb.model.extensions[-1].kept_off({k: np.array([x]) for k, x in v.items()}, pb.model)
+    kept = float(off.sum() / np.clip(pb.meas.q_net, 0.0, None).sum())  # share of the sun kept off
+    return forecast_gain(base, fc), v, record_midday(pb.meas), twin, kept
 
 
 def test_a_shadow_twin_gives_its_hours_and_a_forecast_gain(tmp_path):
     """Measured (seed 3700): edges 1.10 / 4.16 h after midday against the true 1.19 / 4.19,
     share 0.87 of the positive net radiation (the twin's shadow takes 0.6 of the short-wave,
     which is less than the net radiation), F 99.6 against the base's free h(t)."""
-    F, v, midday, twin = _fit(tmp_path, ("shading",), 3700)
+    F, v, midday, twin, kept = _fit(tmp_path, ("shading",), 3700)
+    assert kept > 0.1, kept  # the clean twins' bound below
     truth = twin.spec.effects["shading"]
     start = truth.get("shade_start", 13.5) - midday
     end = truth.get("shade_end", 16.5) - midday
@@ -61,11 +65,15 @@ def test_a_shadow_twin_gives_its_hours_and_a_forecast_gain(tmp_path):
     assert F > FORECAST_THRESHOLD, F
 
 
-def test_no_shadow_on_a_clean_twin(tmp_path):
-    """Measured (seed 3600): share 0.06, F -2.9."""
-    F, v, _, _ = _fit(tmp_path, (), 3600)
-    assert v["shade_fraction"] < 0.25, v
-    assert F < FORECAST_THRESHOLD, F
+@pytest.mark.parametrize("seed", [3600, 3602])
+def test_no_shadow_on_a_clean_twin(tmp_path, seed):
+    """No forecast gain, and little of the sun kept off: with a free h(t) the shadow's hours and
+    share are not identified on a clean twin (measured: seed 3600 a share of 0.34 over 1.7 h in
+    the morning, F -61.6; seed 3602 a shadow of no length, F -2.3), but the energy it takes is
+    small."""
+    F, v, _, _, kept = _fit(tmp_path, (), seed)
+    assert F < FORECAST_THRESHOLD, (F, v)
+    assert kept < 0.1, (kept, v)
 
 
 def test_named_only_and_needs_the_net_radiation():
@@ -112,3 +120,16 @@ def test_shading_refuses_a_measured_top_and_a_window_without_sun():
         Shading().parameters(SimpleNamespace(T_top=np.zeros(t.size), q_net=np.ones(t.size), t=t))
     with _pytest.raises(ValueError, match="never positive"):
         Shading().parameters(SimpleNamespace(T_top=None, q_net=-np.ones(t.size), t=t))
+
+
+def test_every_window_of_a_record_shares_its_midday(tmp_path):
+    """The shadow's hours count from the file's midday, not the window's: a fit (30 h), its
+    training part and its forecast (40 h) keep the same hours (before, the window's own
+    harmonic moved it by up to 12 min between a 72 h fit and its 96 h forecast)."""
+    twin = forecast_twins(("shading",), (3700,), hours=40.0)[0]
+    case = write_twin(twin, tmp_path / twin.name)
+    short = build_problem(load_case(case, {"data": {"window_hours": [0, 30]}})).meas
+    whole = build_problem(load_case(case)).meas
+    assert short.midday is not None and short.midday == whole.midday
+    assert short.select_rows(np.arange(20)).midday == whole.midday
+    assert record_midday(short) == record_midday(whole)

@@ -13,10 +13,11 @@ the open, records the full net radiation.
   spot that sees the sun only when it stands high over the obstacles around it. A shadow from
   ``+1`` to ``+4`` is one obstacle's in the afternoon. Its edges ramp linearly over one step of
   the record (the solver reads the forcing linearly between the rows).
-- The record's **midday** is the clock time of the daily harmonic's peak of ``q_net``
-  (:func:`record_midday`): solar noon, give or take the radiometer's footprint, so the hours do
-  not depend on the time zone or the longitude. The sun's path changes slowly, so the edges hold
-  for days or a few weeks, not a season.
+- The record's **midday** is the clock time of the daily harmonic's peak of ``q_net`` over the
+  whole file the window was cut from (:func:`record_midday`): solar noon, give or take the
+  radiometer's footprint, so the hours do not depend on the time zone or the longitude, and a
+  fit, its training part and the forecast of the next day keep the same hours. The sun's path
+  changes slowly, so the edges hold for days or a few weeks, not a season.
 - ``f`` (``shade_fraction``) is the share of the positive net radiation the shadow takes: the
   direct beam's share of the short-wave, about 0.7-0.9 under a clear sky. Above 1 the shaded
   spot loses long-wave as it does at night (up to 1.5).
@@ -32,7 +33,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ...data.times import hour_of_day
+from ...data.times import daily_peak_hour, hour_of_day
 from ...parameters import Parameter
 from ...parameters.priors import TruncatedNormal, Uniform
 from ..base import Extension
@@ -42,13 +43,12 @@ DAY_H = 24.0
 
 
 def record_midday(meas) -> float:
-    """UTC clock hour (0-24) at which the daily harmonic of ``q_net`` peaks over the record."""
-    hod = hour_of_day(meas.time0, meas.t)
-    w = 2.0 * np.pi * hod / DAY_H
-    q = np.asarray(meas.q_net, float)
-    ok = np.isfinite(q)
-    c, s = np.sum(q[ok] * np.cos(w[ok])), np.sum(q[ok] * np.sin(w[ok]))
-    return float(np.mod(np.arctan2(s, c) * DAY_H / (2.0 * np.pi), DAY_H))
+    """UTC clock hour (0-24) at which the daily harmonic of ``q_net`` peaks: over the whole file
+    the window was cut from (``meas.midday``, so a fit, its training part and its forecast keep
+    the same hours), else over the window."""
+    if getattr(meas, "midday", None) is not None:
+        return float(meas.midday)
+    return daily_peak_hour(hour_of_day(meas.time0, meas.t), meas.q_net)
 
 
 def shade(hours: np.ndarray, start: np.ndarray, end: np.ndarray, ramp: float) -> np.ndarray:
