@@ -396,6 +396,9 @@ def _ground_gains(base: Fit, fb, entries: list[Entry]) -> None:
         return
     for e in entries:
         if e.hook in GROUND_HOOKS:
-            gc = ground_forecast(e.fit.problem, e.forecast)
+            try:  # a fit that moves the top sensor to or below the next has no ground forecast
+                gc = ground_forecast(e.fit.problem, e.forecast)
+            except ValueError:
+                continue
             e.ground_gain = ground_gain(fb.ground, gc)
             e.ground_rmse_sigma = gc.rmse_sigma

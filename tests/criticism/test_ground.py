@@ -92,3 +92,29 @@ def test_ranking_claims_a_deeper_sensor_bias_by_the_ground_forecast(tmp_path):
     assert e["sensor_bias"].forecast_gain < 15.0 < e["sensor_bias"].ground_gain
     assert e["wind_convection"].ground_gain is None
     assert "from the measured top sensor" in rk.verdict and "ground gain G" in rk.verdict
+
+
+def test_a_candidate_that_moves_the_top_sensor_past_the_next_has_no_ground_gain(tmp_path):
+    """A sensor_depth fit with the top sensor's offset at its +1 cm bound puts it at the next
+    sensor's depth: its ground forecast is undefined. The ranking leaves its ground gain out
+    (the forecast campaign stopped with a ValueError on such a twin)."""
+    from types import SimpleNamespace
+
+    from pavement_mcmc.criticism.ranking import _ground_gains
+
+    cfg = _case(tmp_path, "sensor_depth")
+    base = build_problem(cfg)
+    fit = refit(base)
+    fb = forecast(base, fit.values())
+    cand = build_problem(cfg, extensions=["sensor_depth"], grid=base.model.grid)
+    vals = {**cand.space.value_dict(), **fit.values()}
+    top = cand.meas.sensor_labels[0]
+    vals[f"dz_{top}"] = float(cand.meas.depths[1] - cand.meas.depths[0])
+    with pytest.raises(ValueError, match="at or above the top sensor"):
+        ground_model(cand.model, vals)
+    fc = SimpleNamespace(fits=[SimpleNamespace(values=lambda: vals)], origins=fb.origins,
+                         horizon=fb.horizon)
+    e = SimpleNamespace(hook="observe", fit=SimpleNamespace(problem=cand), forecast=fc,
+                        ground_gain=None, ground_rmse_sigma=None)
+    _ground_gains(SimpleNamespace(problem=base), fb, [e])
+    assert fb.ground is not None and e.ground_gain is None
