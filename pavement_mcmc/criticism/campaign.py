@@ -39,7 +39,7 @@ from .forecast import (
     split_rows,
     training_problem,
 )
-from .ground import GROUND_HOOKS, ground_forecast, ground_gain
+from .ground import GROUND_HOOKS, ground_forecast_or_none, ground_gain
 from .ranking import rank_missing_effects
 
 
@@ -200,16 +200,17 @@ def diagnose_twin(twin, directory: str | Path, *, forecast: bool = False,
 def _ground_records(problem, rk, rec: dict) -> None:
     """The ground forecast (:mod:`.ground`) of the base and of every candidate into ``rec``:
     its gain ``G``, RMSE in sigma and whether it may credit the candidate (``ground``)."""
-    try:
-        gb = ground_forecast(problem, rk.forecast)
-    except ValueError:  # one sensor, or a measured top: no ground forecast
+    gb = ground_forecast_or_none(problem, rk.forecast)
+    if gb is None:  # one sensor, or a measured top: no ground forecast
         return
     rec["ground_rmse_sigma"] = gb.rmse_sigma
     rec["ground_rho"] = gb.rho
     for e in rk.entries:
         if e.forecast is None or e.fit is None:
             continue
-        gc = ground_forecast(e.fit.problem, e.forecast)
+        gc = ground_forecast_or_none(e.fit.problem, e.forecast)
+        if gc is None:  # its fit moved the top sensor to or below the next
+            continue
         rec["entries"][e.name].update(G=round(ground_gain(gb, gc), 3),
                                       g_rmse_sigma=round(gc.rmse_sigma, 4),
                                       ground=e.hook in GROUND_HOOKS)

@@ -129,3 +129,12 @@ def ground_gain(base: GroundForecast, cand: GroundForecast) -> float:
     """:math:`F^g_c` (module doc)."""
     phi = (1 + base.rho) / (1 - base.rho)
     return float(base.n / phi * np.log(base.rmse**2 / max(cand.rmse**2, 1e-300)))
+
+
+def ground_forecast_or_none(problem, fc) -> GroundForecast | None:
+    """:func:`ground_forecast`, or None where the model has none: one sensor, a measured top, or
+    a fit that moves the top sensor to or below the next (a sensor_depth offset at its bound)."""
+    try:
+        return ground_forecast(problem, fc)
+    except ValueError:
+        return None

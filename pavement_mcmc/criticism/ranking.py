@@ -74,7 +74,7 @@ from .entries import (
 from .fitting import Fit, refit
 from .forecast import forecast as forecast_skill
 from .forecast import forecast_gain, forecast_share, plugin_gain
-from .ground import GROUND_HOOKS, ground_forecast, ground_gain, where_acts
+from .ground import GROUND_HOOKS, ground_forecast_or_none, ground_gain, where_acts
 from .holdout import leave_one_sensor_out
 from .holdout import out_of_sensor as sensor_holdout
 from .residuals import ResidualReport, analyse_point, noise_like, plain_signals
@@ -390,15 +390,13 @@ def _ground_gains(base: Fit, fb, entries: list[Entry]) -> None:
     """The ground forecast (:mod:`.ground`) of the base model into ``fb.ground`` and each
     ground or sensor candidate's gain over it (none where the case has one sensor or a
     measured top)."""
-    try:
-        fb.ground = ground_forecast(base.problem, fb)
-    except ValueError:
+    fb.ground = ground_forecast_or_none(base.problem, fb)
+    if fb.ground is None:
         return
     for e in entries:
         if e.hook in GROUND_HOOKS:
-            try:  # a fit that moves the top sensor to or below the next has no ground forecast
-                gc = ground_forecast(e.fit.problem, e.forecast)
-            except ValueError:
+            gc = ground_forecast_or_none(e.fit.problem, e.forecast)
+            if gc is None:  # its fit moved the top sensor to or below the next
                 continue
             e.ground_gain = ground_gain(fb.ground, gc)
             e.ground_rmse_sigma = gc.rmse_sigma

@@ -118,3 +118,10 @@ def test_a_candidate_that_moves_the_top_sensor_past_the_next_has_no_ground_gain(
                         ground_gain=None, ground_rmse_sigma=None)
     _ground_gains(SimpleNamespace(problem=base), fb, [e])
     assert fb.ground is not None and e.ground_gain is None
+    # and the campaign's records of the same ranking (its slow test stopped there too)
+    from pavement_mcmc.criticism.campaign import _ground_records
+
+    e.name = "sensor_depth"
+    rec = {"entries": {"sensor_depth": {}}}
+    _ground_records(base, SimpleNamespace(forecast=fb, entries=[e]), rec)
+    assert "ground_rmse_sigma" in rec and rec["entries"]["sensor_depth"] == {}
