@@ -54,3 +54,23 @@ def stopped_run(tmp_path_factory) -> Path:
               overrides={"sampler": {"kind": "fast", "max_steps": 200}})
     assert not out.result.converged
     return root
+
+
+@pytest.fixture
+def extension_forecast(tmp_path):
+    """``f(effects, seed, extension)``: a 40 h forecast twin (input noise on) hiding ``effects``,
+    the base model's forecast and the model with ``extension`` forecast from the best of its
+    start values; returns ``(gain F, the extension's forecast, its problem, the twin)``."""
+    def run(effects, seed, extension):
+        from pavement_mcmc.criticism.forecast import forecast, forecast_from_starts, forecast_gain
+        from pavement_mcmc.data import load_case
+        from pavement_mcmc.posterior import build_problem
+        from pavement_mcmc.synthetic.corpus import forecast_twins, write_twin
+
+        twin = forecast_twins(effects, (seed,), hours=40.0, input_sigma=True)[0]
+        case = write_twin(twin, tmp_path / twin.name)
+        base = forecast(build_problem(load_case(case)))
+        pb = build_problem(load_case(case, additions={"model": {"extensions": [extension]}}))
+        fc = forecast_from_starts(pb, pb.model.extensions[-1].start_values(pb.meas, None))
+        return forecast_gain(base, fc), fc, pb, twin
+    return run

@@ -13,37 +13,28 @@ import pytest
 
 from pavement_mcmc.criticism.calibration import found
 from pavement_mcmc.criticism.entries import FORECAST_THRESHOLD
-from pavement_mcmc.criticism.forecast import forecast, forecast_from_starts, forecast_gain
 from pavement_mcmc.data import load_case
 from pavement_mcmc.physics import candidate_names
 from pavement_mcmc.posterior import build_problem
 from pavement_mcmc.synthetic.corpus import forecast_twins, write_twin
 
 
-def _canopy(tmp_path, effects, seed):
-    twin = forecast_twins(effects, (seed,), hours=40.0, input_sigma=True)[0]
-    case = write_twin(twin, tmp_path / twin.name)
-    base = forecast(build_problem(load_case(case)))
-    pb = build_problem(load_case(case, additions={"model": {"extensions": ["canopy"]}}))
-    starts = pb.model.extensions[-1].start_values(pb.meas, None)
-    fc = forecast_from_starts(pb, starts)
-    return forecast_gain(base, fc), fc.fits[-1].values()
-
-
-def test_canopy_finds_the_layer_of_a_surface_layer_twin(tmp_path):
+def test_canopy_finds_the_layer_of_a_surface_layer_twin(extension_forecast):
     """The layer's resistance is recovered (measured 0.19 against the true 0.25) with a heat
     capacity of the thatch's order (3.6 kJ against 4.5), and the forecast gains past the
     claim margin (measured F 32)."""
-    F, v = _canopy(tmp_path, ("surface_layer",), 3700)
+    F, fc, _, _ = extension_forecast(("surface_layer",), 3700, "canopy")
+    v = fc.fits[-1].values()
     assert F > FORECAST_THRESHOLD, (F, v)
     assert 0.12 < v["R_canopy"] < 0.4, v
     assert 1.5e3 < v["c_canopy"] < 1.2e4, v
 
 
-def test_canopy_on_a_clean_twin_has_no_layer_and_no_gain(tmp_path):
+def test_canopy_on_a_clean_twin_has_no_layer_and_no_gain(extension_forecast):
     """No layer: the resistance goes to its lower bound and the forecast does not gain
     (measured F 1.5)."""
-    F, v = _canopy(tmp_path, (), 3600)
+    F, fc, _, _ = extension_forecast((), 3600, "canopy")
+    v = fc.fits[-1].values()
     assert F < FORECAST_THRESHOLD, (F, v)
     assert v["R_canopy"] < 0.05, v
 

@@ -9,7 +9,6 @@ import numpy as np
 import pytest
 
 from pavement_mcmc.criticism.entries import FORECAST_THRESHOLD
-from pavement_mcmc.criticism.forecast import forecast, forecast_from_starts, forecast_gain
 from pavement_mcmc.data import load_case
 from pavement_mcmc.physics import candidate_names
 from pavement_mcmc.physics.catalogue.shading import record_midday, shade
@@ -38,24 +37,19 @@ def test_midday_is_the_net_radiations_daily_peak():
     assert abs(record_midday(M) - 19.5) < 0.05
 
 
-def _fit(tmp_path, effects, seed):
-    twin = forecast_twins(effects, (seed,), hours=40.0, input_sigma=True)[0]
-    case = write_twin(twin, tmp_path / twin.name)
-    base = forecast(build_problem(load_case(case)))
-    pb = build_problem(load_case(case, additions={"model": {"extensions": ["shading"]}}))
-    starts = pb.model.extensions[-1].start_values(pb.meas, None)
-    fc = forecast_from_starts(pb, starts)
+def _fit(extension_forecast, effects, seed):
+    F, fc, pb, twin = extension_forecast(effects, seed, "shading")
     v = fc.fits[-1].values()
     off = pb.model.extensions[-1].kept_off({k: np.array([x]) for k, x in v.items()}, pb.model)
     kept = float(off.sum() / np.clip(pb.meas.q_net, 0.0, None).sum())  # share of the sun kept off
-    return forecast_gain(base, fc), v, record_midday(pb.meas), twin, kept
+    return F, v, record_midday(pb.meas), twin, kept
 
 
-def test_a_shadow_twin_gives_its_hours_and_a_forecast_gain(tmp_path):
+def test_a_shadow_twin_gives_its_hours_and_a_forecast_gain(extension_forecast):
     """Measured (seed 3700): edges 1.10 / 4.16 h after midday against the true 1.19 / 4.19,
     share 0.87 of the positive net radiation (the twin's shadow takes 0.6 of the short-wave,
     which is less than the net radiation), F 99.6 against the base's free h(t)."""
-    F, v, midday, twin, kept = _fit(tmp_path, ("shading",), 3700)
+    F, v, midday, twin, kept = _fit(extension_forecast, ("shading",), 3700)
     assert kept > 0.1, kept  # the clean twins' bound below
     truth = twin.spec.effects["shading"]
     start = truth.get("shade_start", 13.5) - midday
@@ -66,12 +60,12 @@ def test_a_shadow_twin_gives_its_hours_and_a_forecast_gain(tmp_path):
 
 
 @pytest.mark.parametrize("seed", [3600, 3602])
-def test_no_shadow_on_a_clean_twin(tmp_path, seed):
+def test_no_shadow_on_a_clean_twin(extension_forecast, seed):
     """No forecast gain, and little of the sun kept off: with a free h(t) the shadow's hours and
     share are not identified on a clean twin (measured: seed 3600 a share of 0.34 over 1.7 h in
     the morning, F -61.6; seed 3602 a shadow of no length, F -2.3), but the energy it takes is
     small."""
-    F, v, _, _, kept = _fit(tmp_path, (), seed)
+    F, v, _, _, kept = _fit(extension_forecast, (), seed)
     assert F < FORECAST_THRESHOLD, (F, v)
     assert kept < 0.1, (kept, v)
 

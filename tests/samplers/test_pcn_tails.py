@@ -78,17 +78,23 @@ def _no_chain_stuck(block, window=500):
     return float(block.accepted[-window:].mean(axis=0).min())
 
 
+def _assert_marginal(post, seed, k, quantiles, tol):
+    """No chain stuck, and parameter ``k``'s draws below each of ``quantiles`` as often as the
+    exact marginal says (within ``tol``)."""
+    b = _run(post, seed=seed)
+    assert _no_chain_stuck(b) > 0.05
+    x = b.chain[:, :, k].ravel()
+    for q in quantiles:
+        assert abs(np.mean(x < q) - post.cdf(k, q)) < tol, q
+
+
 def test_pcn_does_not_stick_in_the_tail_towards_a_bound_at_zero():
     """p0 >= 0 with its mode 1.5 sd above 0 (a weakly observed h piece): in log p0 the posterior
     falls like p0 towards 0 while the Laplace reference falls like a Gaussian, so their ratio
     grew without bound there and chains that went down stayed."""
     post = Independent(y=[1.5, 10.0, 8.0, 12.0], sigma=[1.0, 0.5, 0.5, 0.5], lower=[0.0] * 4,
                        kink=[np.inf] * 4, slope=[1.0] * 4)
-    b = _run(post, seed=3)
-    assert _no_chain_stuck(b) > 0.05
-    x0 = b.chain[:, :, 0].ravel()
-    for q in (0.1, 0.5, 1.5):
-        assert abs(np.mean(x0 < q) - post.cdf(0, q)) < 0.02, q
+    _assert_marginal(post, seed=3, k=0, quantiles=(0.1, 0.5, 1.5), tol=0.02)
 
 
 def test_pcn_samples_past_a_kink_of_the_likelihood():
@@ -98,11 +104,7 @@ def test_pcn_samples_past_a_kink_of_the_likelihood():
     P(p1 < 6), P(p1 < 7) came out 0.06-0.09 too high (seeds 1-3)."""
     post = Independent(y=[10.0, 5.0, 8.0, 12.0], sigma=[0.5, 0.5, 0.5, 0.5], lower=[-np.inf] * 4,
                        kink=[np.inf, 5.5, np.inf, np.inf], slope=[1.0, 0.25, 1.0, 1.0])
-    b = _run(post, seed=1)
-    assert _no_chain_stuck(b) > 0.05
-    x1 = b.chain[:, :, 1].ravel()
-    for q in (6.0, 7.0, 8.0):
-        assert abs(np.mean(x1 < q) - post.cdf(1, q)) < 0.025, q
+    _assert_marginal(post, seed=1, k=1, quantiles=(6.0, 7.0, 8.0), tol=0.025)
 
 
 def test_a_pcn_state_saved_before_the_shift_and_random_walk_resumes_as_it_was():
