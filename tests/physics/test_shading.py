@@ -18,13 +18,30 @@ from pavement_mcmc.synthetic.corpus import forecast_twins, write_twin
 
 def test_shade_is_the_clock_interval_with_ramped_edges_and_wraps_midnight():
     h = np.arange(-12.0, 12.0, 0.25)
-    s = shade(h, np.array([1.0, 4.0]), np.array([4.0, -4.0]), 0.5)
+    s = shade(h, np.array([1.0, 4.0]), np.array([3.0, 16.0]), 0.5)
     afternoon, wide = s
     assert np.all(afternoon[(h > 1.25) & (h < 3.75)] == 1.0)
     assert np.all(afternoon[(h < 0.75) | (h > 4.25)] == 0.0)
     assert afternoon[h == 1.0] == 0.5 and afternoon[h == 4.0] == 0.5
     # from 4 h after midday through the night to 4 h before it: the sun only around midday
     assert np.all(wide[np.abs(h) < 3.75] == 0.0) and np.all(wide[np.abs(h) > 4.25] == 1.0)
+
+
+def test_the_shadow_grows_continuously_from_none_to_all_day():
+    """In (start, length) a shadow of no length shades nothing and one of 24 h everything, and
+    the shade changes by at most dL / ramp when the length changes by dL, at every length. In
+    the earlier (start, end) form a shadow of 24 h and none were neighbours (the end just before
+    or just after the start) and the start hour stayed half-shaded at both."""
+    h = np.arange(-12.0, 12.0, 0.1)
+    ramp, dL = 0.5, 1e-3
+    np.testing.assert_allclose(shade(h, np.array([3.0]), np.array([0.0]), ramp), 0.0, atol=1e-12)
+    np.testing.assert_allclose(shade(h, np.array([3.0]), np.array([24.0]), ramp), 1.0, atol=1e-12)
+    lengths = np.linspace(0.0, 24.0 - dL, 2401)
+    a = shade(h, np.full(lengths.size, 3.0), lengths, ramp)
+    b = shade(h, np.full(lengths.size, 3.0), lengths + dL, ramp)
+    assert np.max(np.abs(b - a)) <= dL / ramp * (1 + 1e-6)
+    # the mean shade over a day is the length: the ramps move shade, they do not add any
+    np.testing.assert_allclose(a.mean(axis=1) * 24.0, lengths, atol=2e-3 * 24.0)
 
 
 def test_midday_is_the_net_radiations_daily_peak():
@@ -54,7 +71,8 @@ def test_a_shadow_twin_gives_its_hours_and_a_forecast_gain(extension_forecast):
     truth = twin.spec.effects["shading"]
     start = truth.get("shade_start", 13.5) - midday
     end = truth.get("shade_end", 16.5) - midday
-    assert abs(v["shade_start"] - start) < 0.3 and abs(v["shade_end"] - end) < 0.3, (v, start, end)
+    fitted_end = v["shade_start"] + v["shade_length"]
+    assert abs(v["shade_start"] - start) < 0.3 and abs(fitted_end - end) < 0.3, (v, start, end)
     assert 0.5 < v["shade_fraction"] < 1.2, v
     assert F > FORECAST_THRESHOLD, F
 
@@ -92,7 +110,7 @@ def test_the_energy_partition_keeps_the_shadow_out_of_the_sensible_heat(tmp_path
     pb = build_problem(load_case(case, additions={"model": {
         "extensions": ["energy_balance_window", "shading"]}}))
     p = {k: np.array([v]) for k, v in pb.space.value_dict().items()}
-    p.update(shade_start=np.array([1.0]), shade_end=np.array([4.0]),
+    p.update(shade_start=np.array([1.0]), shade_length=np.array([3.0]),
              shade_fraction=np.array([0.8]))
     part = energy_partition(pb.model, p)
     T_s = pb.model.solve(p)[..., 0]

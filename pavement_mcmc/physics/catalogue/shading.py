@@ -7,12 +7,15 @@ the open, records the full net radiation.
     q(t) = q_\mathrm{net}(t) - f\,s(t)\,\max(q_\mathrm{net}(t), 0)
 
 - ``s(t)`` is 1 in the shade and 0 in the sun, by the clock: the shadow starts
-  ``shade_start`` hours after the record's midday and ends ``shade_end`` hours after it (mod 24;
-  both in -12 … 12, a negative value is before midday). A shadow from ``+3.5`` to ``-4`` covers
-  the afternoon from 3.5 h after midday, the night and the morning until 4 h before midday: a
-  spot that sees the sun only when it stands high over the obstacles around it. A shadow from
-  ``+1`` to ``+4`` is one obstacle's in the afternoon. Its edges ramp linearly over one step of
-  the record (the solver reads the forcing linearly between the rows).
+  ``shade_start`` hours after the record's midday (-12 … 12, a negative value is before midday)
+  and lasts ``shade_length`` hours (0 … 24, through midnight if need be). A shadow starting at
+  ``+3.5`` and lasting 16.5 h covers the afternoon from 3.5 h after midday, the night and the
+  morning until 4 h before midday: a spot that sees the sun only when it stands high over the
+  obstacles around it. One starting at ``+1`` and lasting 3 h is one obstacle's in the
+  afternoon. Its edges ramp linearly over one step of the record (the solver reads the forcing
+  linearly between the rows). A length, not an end hour: with an end hour a shadow of 24 h and
+  none were neighbours (the end just before or just after the start), and the misfit jumped
+  between them; in length the shadow grows continuously from none (0) to all day (24).
 - The record's **midday** is the clock time of the daily harmonic's peak of ``q_net`` over the
   whole file the window was cut from (:func:`record_midday`): solar noon, give or take the
   radiometer's footprint, so the hours do not depend on the time zone or the longitude, and a
@@ -51,15 +54,19 @@ def record_midday(meas) -> float:
     return daily_peak_hour(hour_of_day(meas.time0, meas.t), meas.q_net)
 
 
-def shade(hours: np.ndarray, start: np.ndarray, end: np.ndarray, ramp: float) -> np.ndarray:
-    """1 in the shadow, 0 in the sun, at ``hours`` after midday (n_obs,), for shadows from
-    ``start`` to ``end`` (n_sets,) hours after midday (mod 24): the signed distance to the
-    shadow's nearer edge, ramped linearly over ``ramp`` hours (n_sets, n_obs)."""
-    u = np.mod(hours[None, :] - start[:, None], DAY_H)  # hours since the shadow began
-    length = np.mod(end - start, DAY_H)[:, None]
-    inside = u < length
-    dist = np.where(inside, np.minimum(u, length - u), -np.minimum(u - length, DAY_H - u))
-    return np.clip(dist / ramp + 0.5, 0.0, 1.0)
+def shade(hours: np.ndarray, start: np.ndarray, length: np.ndarray, ramp: float) -> np.ndarray:
+    """The share of the hour around ``hours`` after midday (n_obs,) spent in the shadow, for
+    shadows that start ``start`` hours after midday and last ``length`` hours (n_sets,; 0 … 24),
+    every day: the daily shadow averaged over a window of ``ramp`` hours, so its edges ramp
+    linearly over ``ramp`` (n_sets, n_obs). Continuous in both: a shadow of no length shades
+    nothing, one of 24 h everything."""
+    length = np.clip(np.asarray(length, float), 0.0, DAY_H)[:, None]
+
+    def shaded_until(x):  # hours of shadow from the start of the first shadow to x
+        return np.floor(x / DAY_H) * length + np.minimum(np.mod(x, DAY_H), length)
+
+    u = hours[None, :] - np.asarray(start, float)[:, None]  # hours since a shadow began
+    return np.clip((shaded_until(u + 0.5 * ramp) - shaded_until(u - 0.5 * ramp)) / ramp, 0.0, 1.0)
 
 
 @register_extension
@@ -87,8 +94,8 @@ class Shading(Extension):
         return [
             Parameter("shade_start", 4.0, -12.0, 12.0, prior=Uniform(-12.0, 12.0), unit="h",
                       description="the shadow begins, hours after the record's midday"),
-            Parameter("shade_end", -4.0, -12.0, 12.0, prior=Uniform(-12.0, 12.0), unit="h",
-                      description="the shadow ends, hours after the record's midday"),
+            Parameter("shade_length", 16.0, 0.0, DAY_H, prior=Uniform(0.0, DAY_H), unit="h",
+                      description="the shadow lasts, hours (through midnight if need be)"),
             Parameter("shade_fraction", 0.8, 0.0, 1.5, prior=TruncatedNormal(0.8, 0.4),
                       unit="-", description="share of the positive net radiation the shadow "
                       "takes"),
@@ -97,8 +104,8 @@ class Shading(Extension):
     def start_values(self, meas, base):
         """A spot in the sun only around midday (three widths), or shaded in the afternoon or
         in the morning."""
-        return [{"shade_start": a, "shade_end": b, "shade_fraction": 0.8}
-                for a, b in ((2.5, -2.5), (3.5, -3.5), (4.5, -4.5), (1.0, 4.0), (-4.0, -1.0))]
+        return [{"shade_start": a, "shade_length": n, "shade_fraction": 0.8}
+                for a, n in ((2.5, 19.0), (3.5, 17.0), (4.5, 15.0), (1.0, 3.0), (-4.0, 3.0))]
 
     def surface(self, coeffs, p, model):
         coeffs.q -= self.kept_off(p, model)
@@ -110,6 +117,6 @@ class Shading(Extension):
                        DAY_H) - 12.0
         step = float(np.median(np.diff(meas.t))) / 3600.0 if meas.t.size > 1 else 1.0
         s = shade(hours, np.asarray(p["shade_start"], float),
-                  np.asarray(p["shade_end"], float), max(step, 1.0 / 6.0))
+                  np.asarray(p["shade_length"], float), max(step, 1.0 / 6.0))
         qp = np.clip(np.asarray(meas.q_net, float), 0.0, None)
         return np.asarray(p["shade_fraction"], float)[:, None] * s * qp[None, :]
