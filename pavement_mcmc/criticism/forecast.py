@@ -298,6 +298,14 @@ def gain(n: int, rho: float, rmse_base: float, rmse_cand: float) -> float:
     return float(n / phi * np.log(rmse_base**2 / max(rmse_cand**2, 1e-300)))
 
 
+def ratio_for_gain(n: int, rho: float, F: float) -> float:
+    """The factor by which a candidate must cut the base forecast's RMSE for :func:`gain` to
+    reach ``F``: exp(F phi / 2n). Few effective held-out values (smooth errors, a short
+    horizon) make a margin out of reach of any candidate."""
+    phi = (1 + rho) / (1 - rho)
+    return float(np.exp(F * phi / (2.0 * n)))
+
+
 def plugin_gain(base: Forecast, cand: Forecast) -> float:
     r""":math:`2(\mathrm{elpd}_c - \mathrm{elpd}_r)/\phi_r` with the plug-in Gaussian density of
     each datum (sd: the measurement's): a supporting figure, not the claim statistic

@@ -8,6 +8,7 @@ refit's (both MAP fits of the same data); a candidate that helps without explain
 from __future__ import annotations
 
 from .entries import DATA_THRESHOLD, ENERGY, FORECAST_THRESHOLD, LOSO_NONE
+from .forecast import ratio_for_gain
 from .residuals import ResidualReport, noise_like
 
 #: share of the excess misfit a claimed candidate removes above which its leftover is "the size
@@ -127,7 +128,19 @@ def forecast_sentence(best, entries, fbase) -> str:
                ", but its offsets line up with depth" if top.profile else "")
     return (f" No candidate forecasts {period} better by the margin F > {FORECAST_THRESHOLD:g} "
             f"(base forecast RMSE {fbase.rmse_sigma:.2f} σ; best {top.name}: "
-            f"{top.forecast_rmse_sigma:.2f} σ, F = {top.forecast_gain:.0f}{why}).")
+            f"{top.forecast_rmse_sigma:.2f} σ, F = {top.forecast_gain:.0f}{why})."
+            + _reach(fbase))
+
+
+def _reach(fbase) -> str:
+    """How far the margin is: the RMSE cut it asks of any candidate, from the base forecast's
+    effective count of held-out values ('' when the forecast does not carry them)."""
+    n, rho = getattr(fbase, "n", None), getattr(fbase, "rho", None)
+    if not n or rho is None:
+        return ""
+    phi, cut = (1 + rho) / (1 - rho), ratio_for_gain(n, rho, FORECAST_THRESHOLD)
+    return (f" The held-out errors are smooth (lag-1 {rho:.2f}: {n / phi:.1f} effective values of "
+            f"{n}), so passing the margin asks a forecast RMSE {cut:.2f} times smaller.")
 
 
 def energy_sentence(entries, base, fbase) -> str:

@@ -136,3 +136,26 @@ def test_the_misfit_is_placed_in_one_sensor_only_when_no_other_fold_fails():
     sun.unpredicted, sun.loso_rmse_sigma = ("0cm", 2.55), {"0cm": 2.55, "1cm": 1.64, "2cm": 1.4}
     assert "sits in the 0cm sensor" in headline(_ranking(none=True, entries=[sun]))
     assert "sits in the 0cm sensor" in _unpredicted_text([sun])
+
+
+def test_the_verdict_says_how_far_the_margin_is_on_smooth_held_out_errors():
+    """A held-out day of smooth errors holds few effective values, and the margin then asks a
+    large cut of the forecast RMSE (the desert window: lag-1 0.83 over 96 values, 9.1 effective,
+    a cut of 2.27 for F > 15). The factor must be the one at which the gain reaches the margin,
+    and the sentence must give it."""
+    from pavement_mcmc.criticism.entries import FORECAST_THRESHOLD
+    from pavement_mcmc.criticism.forecast import gain, ratio_for_gain
+    from pavement_mcmc.criticism.verdict import forecast_sentence
+
+    for n, rho in ((96, 0.826), (400, 0.3), (24, 0.95)):
+        k = ratio_for_gain(n, rho, FORECAST_THRESHOLD)
+        assert abs(gain(n, rho, 0.7 * k, 0.7) - FORECAST_THRESHOLD) < 1e-9
+    assert ratio_for_gain(96, 0.826, FORECAST_THRESHOLD) > 2.0 > ratio_for_gain(400, 0.3, 15.0)
+    e = _claimed(0.57)
+    e.name, e.forecast_gain, e.forecast_rmse_sigma = "two_layer", 5.8, 5.73
+    fbase = SimpleNamespace(horizon=24.0, rmse_sigma=7.88, driver="the forcing alone", n=96,
+                            rho=0.826)
+    fc = forecast_sentence(None, [e], fbase)
+    assert "9.1 effective values of 96" in fc and "2.27 times smaller" in fc, fc
+    del fbase.n  # a forecast that does not carry its count: no claim about the margin
+    assert "effective values" not in forecast_sentence(None, [e], fbase)
