@@ -44,7 +44,7 @@ from .integrity import (
     unreadable,
 )
 from .records import RunData, RunState, _dumps, _loads
-from .swmr import open_swmr_reader
+from .swmr import open_swmr_reader, open_swmr_writer
 from .writer import _ABANDONED, _pid_alive, _writer_record
 
 
@@ -155,7 +155,8 @@ class HDF5Store(Store):
         try:
             store = cls(f, path, writable=True)
             store._ds("writer")[...] = np.frombuffer(info.ljust(256, b"\0"), dtype=np.uint8)
-            f.swmr_mode = True
+            if not f.swmr_mode:  # a file just created (a reopened one is opened in SWMR mode)
+                f.swmr_mode = True
         except BaseException as err:
             close_after_failure(f)
             raise creation_failed(path, err) from err
@@ -173,7 +174,6 @@ class HDF5Store(Store):
         raised if the recorded writer is still alive on this host, or runs on another host
         (unless ``force``), or if another process holds the file open (HDF5 cannot lock it).
         """
-        h5py = _h5py()
         path = os.fspath(path)
         # first as a reader (bounded attempts, checked headers): HDF5's own r+ open of a file
         # with a damaged header can wait for ever or fail deep inside, and writes to it
@@ -183,7 +183,7 @@ class HDF5Store(Store):
         finally:
             reader.close()
         try:
-            f = h5py.File(path, "r+", libver="latest")
+            f = open_swmr_writer(path)  # SWMR from the open on (swmr.py: why)
         except FileNotFoundError:
             raise
         except OSError as err:  # a killed writer, or one whose last write failed (disk full)

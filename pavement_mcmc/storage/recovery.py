@@ -45,7 +45,7 @@ from .integrity import (
     human_bytes,
     system_reason,
 )
-from .swmr import _hdf5_library
+from .swmr import _hdf5_library, open_swmr_writer
 
 #: the copy is made only on a disk with this many times its size free (the copy, and as much
 #: again for the run to go on while the old file is kept beside it); else the run goes on in place
@@ -80,7 +80,7 @@ def recover(cls, path: str) -> h5py.File:
             f"free {human_bytes(need - free)} more, then resume again",
             path=path, reason="not enough free space for a copy", n_saved=data.n_saved)
     _copy(cls, path, data, commit[2])
-    return h5py.File(path, "r+", libver="latest")
+    return open_swmr_writer(path)
 
 
 def copy_bytes(data) -> int:
@@ -132,7 +132,7 @@ def _in_place(cls, path: str, commit: tuple, end: int | None) -> tuple[h5py.File
     try:
         if os.path.getsize(path) < end:
             os.truncate(path, end)  # a hole: the file system allocates no block for it
-        f = _open_clearing_flags(lib, path)
+        f = open_swmr_writer(path, clear_flags=True)
     except OSError as err:
         return None, f"it cannot be opened in place ({system_reason(err)})"
     try:
@@ -146,17 +146,6 @@ def _in_place(cls, path: str, commit: tuple, end: int | None) -> tuple[h5py.File
         close_after_failure(f)  # nothing more reaches the file
         return None, f"it did not read back whole in place ({first_line(err)})"
     return f, ""
-
-
-def _open_clearing_flags(lib, path: str) -> h5py.File:
-    """``h5py.File(path, "r+", libver="latest")`` with the superblock's status flags (the mark
-    of a writer that did not close it) cleared, as ``h5clear`` does."""
-    fapl = h5py.h5p.create(h5py.h5p.FILE_ACCESS)
-    fapl.set_libver_bounds(h5py.h5f.LIBVER_LATEST, h5py.h5f.LIBVER_LATEST)
-    clear = ctypes.c_bool(True)
-    if lib.H5Pset(ctypes.c_int64(fapl.id), b"clear_status_flags", ctypes.byref(clear)) < 0:
-        raise OSError("HDF5 has no property clear_status_flags")
-    return h5py.File(h5py.h5f.open(os.fsencode(path), h5py.h5f.ACC_RDWR, fapl=fapl))
 
 
 def _copy(cls, path: str, data, generation: int) -> None:
