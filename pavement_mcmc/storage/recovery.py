@@ -47,9 +47,11 @@ from .integrity import (
 )
 from .swmr import _hdf5_library, open_swmr_writer
 
-#: the copy is made only on a disk with this many times its size free (the copy, and as much
-#: again for the run to go on while the old file is kept beside it); else the run goes on in place
-COPY_ROOM = 2
+#: the copy is made only on a disk with this many times its size free: the old file, kept
+#: beside it, then takes a tenth of the room at most. With 2 (the copy, and as much again), 2 of
+#: 5 full tmpfs disks given 1.4 MB took the copy and filled again, the old file holding 1.8 MB
+#: (``benchmarks/full_disk_resume.py``); else the run goes on in place
+COPY_ROOM = 10
 #: bytes of a fresh run file besides its rows and state (headers, indexes; Case A: 25 kB)
 _OVERHEAD = 64 * 1024
 
