@@ -10,13 +10,15 @@ against the digest; a file that fails the check is refused and left as it was.
 
 * **In place** (format 3, when the disk has less free than :data:`COPY_ROOM` times the copy):
   the file is extended to the end HDF5 recorded and to the end of every chunk its indexes name
-  (``os.truncate``: a sparse hole, no blocks), opened read-write with its status flags cleared
+  (``os.truncate``: a sparse hole, no blocks), opened read-write (SWMR) with its flags cleared
   (``h5clear``'s way), its allocation end set past all of that (``H5Fincrement_filesize``, as
   ``h5clear -i``: HDF5 gives out new space from that end, and one left short of a block the
   file refers to would give that block out again), and read once more through that handle and
   checked against the digest before anything is written. A flush then writes only chunks no
-  commit names. Killed at any moment, the file is again a dead writer's: flags set, the same
-  commit, resumed the same way. No ``.crashed`` copy is kept: it would need the room that is
+  commit names. What the failed flush wrote stays in the file unused (HDF5 keeps no record of
+  free space): the file ends larger than an undisturbed run's by up to a flush's chunks.
+  Killed at any moment, the file is again a dead writer's: flags set, the same commit, resumed
+  the same way. No ``.crashed`` copy is kept: it would need the room that is
   missing, and it would hold nothing of the run beyond the checked committed steps.
 * **A fresh copy** (formats 1 and 2, which rewrite committed rows and are upgraded to format 3
   this way; a file the in-place way cannot check; a disk with room): the committed steps go to
