@@ -13,8 +13,9 @@ reading), :mod:`.integrity` (the commit's digest, :class:`StoreDamaged`,
 :class:`StoreWriteFailed`), :mod:`.memory` (:class:`MemoryStore`), :mod:`.hdf5`
 (:class:`HDF5Store` in SWMR mode and :func:`read_run`, which reads a finished or a live run),
 :mod:`.rows` (where an HDF5 run's rows lie: whole chunks written once, a double-buffered tail),
-:mod:`.swmr` (opening a file for reading with HDF5's metadata retries bounded), :mod:`.writer`
-(who writes a file, and whether that process lives).
+:mod:`.swmr` (opening a file for reading with HDF5's metadata retries bounded, and for writing
+in SWMR mode), :mod:`.writer` (who writes a file, and whether that process lives),
+:mod:`.recovery` (a dead writer's run continued in place or copied).
 """
 
 from __future__ import annotations

@@ -20,12 +20,12 @@ from __future__ import annotations
 
 import json
 import os
-import shutil
 import socket
 import time
 
 import numpy as np
 
+from . import recovery
 from . import rows as row_layout
 from .base import FORMAT_VERSION, Store, StoreBusy
 from .integrity import (
@@ -36,7 +36,6 @@ from .integrity import (
     close_after_failure,
     creation_failed,
     first_line,
-    full_digest,
     hdf5_end_of_file,
     human_bytes,
     neutralise,
@@ -45,7 +44,7 @@ from .integrity import (
     unreadable,
 )
 from .records import RunData, RunState, _dumps, _loads
-from .swmr import open_swmr_reader
+from .swmr import open_swmr_reader, open_swmr_writer
 from .writer import _ABANDONED, _pid_alive, _writer_record
 
 
@@ -156,7 +155,8 @@ class HDF5Store(Store):
         try:
             store = cls(f, path, writable=True)
             store._ds("writer")[...] = np.frombuffer(info.ljust(256, b"\0"), dtype=np.uint8)
-            f.swmr_mode = True
+            if not f.swmr_mode:  # a file just created (a reopened one is opened in SWMR mode)
+                f.swmr_mode = True
         except BaseException as err:
             close_after_failure(f)
             raise creation_failed(path, err) from err
@@ -168,13 +168,12 @@ class HDF5Store(Store):
         """Reopen a run for writing; resume from ``.state`` (and ``.meta``, ``.n_saved``).
 
         If a writer was killed, or its last write failed (a full disk leaves the file shorter
-        than HDF5 expects), HDF5 refuses to reopen the file. With ``recover`` the committed
-        steps and state (checked against the commit's digest) are copied into a fresh file at
-        ``path`` and the damaged file is kept as ``path + '.crashed'``. :class:`StoreBusy` is
+        than HDF5 expects), HDF5 refuses to reopen the file. With ``recover`` its committed
+        steps and state are checked against the commit's digest, then continued in place or
+        copied into a fresh file (:mod:`.recovery`: which, and why). :class:`StoreBusy` is
         raised if the recorded writer is still alive on this host, or runs on another host
         (unless ``force``), or if another process holds the file open (HDF5 cannot lock it).
         """
-        h5py = _h5py()
         path = os.fspath(path)
         # first as a reader (bounded attempts, checked headers): HDF5's own r+ open of a file
         # with a damaged header can wait for ever or fail deep inside, and writes to it
@@ -184,7 +183,7 @@ class HDF5Store(Store):
         finally:
             reader.close()
         try:
-            f = h5py.File(path, "r+", libver="latest")
+            f = open_swmr_writer(path)  # SWMR from the open on (swmr.py: why)
         except FileNotFoundError:
             raise
         except OSError as err:  # a killed writer, or one whose last write failed (disk full)
@@ -205,41 +204,12 @@ class HDF5Store(Store):
                 raise StoreBusy(f"{path} is being written by process {w['pid']}") from err
             if not recover:
                 raise
-            cls._recover(path)
-            f = h5py.File(path, "r+", libver="latest")
+            f = recovery.recover(cls, path)
         try:
             return cls._start_writing(f, path)
         except BaseException:
             f.close()
             raise
-
-    @classmethod
-    def _recover(cls, path: str) -> None:
-        """Copy the committed part of a run left by a killed writer into a fresh file."""
-        src = cls.open_readonly(path)
-        try:
-            data = src.read()
-            gen = src._read_commit()[2]
-        finally:
-            src.close()
-        tmp = path + ".recovering"
-        new = cls.create(tmp, data.param_names, data.blob_names, src.n_chains, data.meta, overwrite=True)
-        rows = (data.chain, data.log_prob, data.blobs, data.accepted)
-        try:
-            if data.n_saved:
-                new._write_rows(0, 0, *rows)
-            if data.state is not None:
-                new._write_state(0, data.state)
-            new._commit(data.n_saved, 0 if data.state is not None else -1, gen,
-                        full_digest(rows, data.state))
-        except Exception as err:
-            failed = new._write_failed(err, 0)
-            new.close()
-            os.unlink(tmp)
-            raise failed from err
-        new.close()
-        _keep_aside(path, path + ".crashed")
-        os.replace(tmp, path)  # one rename: killed at any moment, a run is at ``path``
 
     @classmethod
     def open_readonly(cls, path: str | os.PathLike) -> HDF5Store:
@@ -393,19 +363,6 @@ class HDF5Store(Store):
         ds[...] = np.array(rec, dtype=np.int64)
         self._f.flush()
         self._tail, self._tail_next = self._tail_next, None
-
-
-def _keep_aside(path: str, aside: str) -> None:
-    """Make ``aside`` a second name of ``path`` (a copy where hard links are not supported),
-    replacing an older ``aside``; ``path`` itself is left in place."""
-    tmp = aside + ".new"
-    if os.path.lexists(tmp):
-        os.unlink(tmp)
-    try:
-        os.link(path, tmp)
-    except OSError:  # no hard links on this file system (or across a mount)
-        shutil.copyfile(path, tmp)
-    os.replace(tmp, aside)
 
 
 def read_run(path: str | os.PathLike) -> RunData:

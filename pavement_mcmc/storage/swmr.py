@@ -8,6 +8,11 @@ waiting for hours (measured: past 5 minutes with 0.2 s of CPU; 25 attempts take 
 attempts are set to :data:`READ_ATTEMPTS` here, about 0.3 s of waiting in all; a writer's race
 is retried above that by the store (:meth:`.base.Store._consistent_read`).
 
+A writer reopening a run opens it in SWMR mode at once (:func:`open_swmr_writer`): h5py's
+``File(path, "r+", swmr=True)`` ignores ``swmr``, and a writer killed between its plain
+read-write open and ``swmr_mode = True`` left the file marked as written without SWMR, which
+no SWMR reader opens ("file is not already open for SWMR writing") and so no resume either.
+
 h5py does not wrap ``H5Pset_metadata_read_attempts``; it is called through ``ctypes`` in the
 HDF5 library h5py itself uses: looked up through the handle of h5py's extension module
 ``h5py.h5p``, whose dependencies are searched (h5py's libhdf5, bundled or the system's), never
@@ -71,3 +76,20 @@ def open_swmr_reader(path: str, locking: bool = True):
     bound_read_attempts(fapl)
     fid = h5py.h5f.open(os.fsencode(path), h5py.h5f.ACC_RDONLY | h5py.h5f.ACC_SWMR_READ, fapl=fapl)
     return h5py.File(fid)
+
+
+def open_swmr_writer(path: str, clear_flags: bool = False):
+    """``h5py.File(path, "r+", libver="latest")`` already in SWMR write mode. ``clear_flags``:
+    first clear the superblock's status flags, the mark of a writer that did not close the file
+    (HDF5's property ``clear_status_flags``, set as ``h5clear`` does; OSError if it cannot be)."""
+    import h5py
+
+    fapl = h5py.h5p.create(h5py.h5p.FILE_ACCESS)
+    fapl.set_libver_bounds(h5py.h5f.LIBVER_LATEST, h5py.h5f.LIBVER_LATEST)
+    if clear_flags:
+        lib, clear = _hdf5_library(), ctypes.c_bool(True)
+        if lib is None or lib.H5Pset(ctypes.c_int64(fapl.id), b"clear_status_flags",
+                                     ctypes.byref(clear)) < 0:
+            raise OSError("HDF5's property clear_status_flags cannot be set")
+    flags = h5py.h5f.ACC_RDWR | h5py.h5f.ACC_SWMR_WRITE
+    return h5py.File(h5py.h5f.open(os.fsencode(path), flags, fapl=fapl))
