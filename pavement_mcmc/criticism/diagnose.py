@@ -81,7 +81,7 @@ def diagnose(
     findings = check_values(values.get("kappa"), values.get("C"), h or None, declared)
     energy = None
     if not problem.model.top_measured:
-        alarm = any(f.level == "alarm" and f.quantity in ("kappa", "C") for f in findings)
+        alarm = any(f.level == "alarm" and f.quantity in ("kappa", "C", "h") for f in findings)
         energy = energy_balance(problem, values, top_fit=alarm or bool(problem.model.plates))
     ranking = (rank_missing_effects(problem, values, candidates, holdout=holdout, energy=energy,
                                     report=rep, forecast=forecast, energy_law=energy_law)

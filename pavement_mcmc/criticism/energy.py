@@ -6,7 +6,9 @@ instead; a model without such a sink compensates with an absurd kappa and C whil
 right. Three numbers tell the surface boundary apart from the conduction below it:
 
 1. the fitted ground heat flux at the surface and its share of the net radiation at midday
-   (over grass typically 5-20 %, bare soil 20-40 %, pavement 30-60 %);
+   (over grass typically 5-20 %, bare soil 20-40 %, pavement 30-60 %), and whether the fit's
+   kappa, C or h is physically impossible (an h beyond forced convection of air is the free
+   h(t) standing in for a flux that is not convection);
 2. a fit with the shallowest sensor as a measured top (no surface balance at all): its
    kappa/C is the conduction's own answer, and with a heat-flux plate its kappa too;
 3. the fitted flux at each plate against the plate's readings.
@@ -149,14 +151,18 @@ def _top_fit(problem) -> dict | None:
 
 def _verdict(eb: EnergyBalance) -> str:
     alarms = [f for f in eb.findings if f.level == "alarm" and f.quantity in ("kappa", "C")]
+    h_alarm = [f for f in eb.findings if f.level == "alarm" and f.quantity == "h"]
     plate_off = [lab for lab, v in eb.plates.items() if not 0.6 <= v["slope"] <= 1.6]
     off = None if eb.top is None else eb.diffusivity / eb.top["diffusivity"] - 1.0
     kappa_off = (eb.top is not None and eb.top.get("from_plate")
                  and not 0.5 <= eb.kappa / eb.top["kappa"] <= 2.0)
-    if alarms or plate_off or kappa_off:
+    if alarms or plate_off or kappa_off or h_alarm:
         why = []
         if alarms:
             why.append("kappa or C is physically impossible")
+        if h_alarm:
+            why.append(f"the free h(t) reaches {h_alarm[0].value:.0f} W m-2 K-1, beyond forced "
+                       "convection of air: it stands in for a flux that is not convection")
         if kappa_off:
             why.append(f"kappa {eb.kappa:.3g} against {eb.top['kappa']:.3g} from the measured top "
                        "and the plate")
@@ -176,4 +182,7 @@ def _verdict(eb: EnergyBalance) -> str:
         return ("Conduction itself disagrees: kappa/C differs from the measured-top fit's by "
                 f"{100 * abs(off):.0f} % (layers, sensor depths or a temperature-dependent "
                 "conductivity, below the surface).")
+    if eb.top is None and not eb.plates:
+        return ("Nothing here says the energy entering the ground is wrong: kappa, C and h are "
+                "possible (no measured-top fit or plate checked it).")
     return "The energy entering the ground is consistent with the measured-top fit and the plates."

@@ -3,6 +3,8 @@ ground, sensors at 2-20 cm, bottom 50 cm, a 5 cm heat-flux plate)."""
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import pytest
 
 from pavement_mcmc.criticism import refit
@@ -87,3 +89,43 @@ def test_the_measured_top_fit_of_a_canopy_model_leaves_the_canopy_out(tmp_path):
     eb = energy_balance(pb, refit(pb).values())
     assert eb.top is not None and eb.top["from_plate"]
     assert eb.top["diffusivity"] == pytest.approx(twin.spec.kappa / twin.spec.C, rel=0.1)
+
+
+def _eb(findings, top=None, plates=None):
+    import numpy as np
+
+    from pavement_mcmc.criticism.energy import EnergyBalance, _verdict
+
+    eb = EnergyBalance(np.zeros(3), 0.1, 3.6e-7, 0.24, top, plates or {}, findings)
+    eb.verdict = _verdict(eb)
+    return eb
+
+
+def test_an_impossible_h_names_the_surface_boundary():
+    """A free h(t) beyond forced convection of air stands in for a flux that is not convection
+    (the desert record's base fit: h 476 W m-2 K-1 with kappa and C possible). Before, only an
+    impossible kappa or C or a plate named the surface boundary, and the verdict said the energy
+    was "consistent with the measured-top fit and the plates" when neither had been checked."""
+    from pavement_mcmc.physics.materials import H_ALARM, Finding
+
+    h = Finding("alarm", "h", 476.0, 0.0, H_ALARM, "beyond forced convection of air")
+    eb = _eb([h], top={"kappa": 0.3, "C": 0.9e6, "diffusivity": 3.4e-7, "from_plate": False})
+    assert eb.surface_wrong and "476 W m-2 K-1" in eb.verdict and "conduction is fine" in eb.verdict
+    quiet = _eb([])
+    assert not quiet.surface_wrong and "measured-top fit and the plates" not in quiet.verdict
+    assert "no measured-top fit or plate" in quiet.verdict
+
+
+DESERT = Path(__file__).resolve().parents[2].parent / "shared" / "data" / "soilvue_utah" / "measurements.csv"
+
+
+@pytest.mark.skipif(not DESERT.is_file(), reason=f"the shared desert record is not here ({DESERT})")
+def test_the_desert_base_fit_names_the_surface_boundary_by_its_h():
+    """runs/desert.toml (free h per hour, no plate): the MAP's kappa and C are possible but h
+    passes forced convection at midday; the measured-top fit agrees on kappa/C."""
+    from pavement_mcmc.criticism.diagnose import diagnose
+
+    pb = build_problem(load_case(Path(__file__).resolve().parents[2] / "runs" / "desert.toml"))
+    dx = diagnose(pb, refit(pb, max_nfev=200).values(), rank=False)
+    assert not any(f.quantity in ("kappa", "C") and f.level == "alarm" for f in dx.findings)
+    assert dx.energy.surface_wrong and dx.energy.top is not None, dx.energy.text()
