@@ -167,9 +167,8 @@ class HMCSampler(Sampler):
         with np.errstate(all="ignore"):
             f, g, _, _ = self._value_grad(T)
         self.n_prep_evals += T.shape[0]
-        cov = bounded_laplace_cov(cov, mode[i], g[0], self.lo[i], self.hi[i])
         cov, self.widen = widened(cov, T[:, i], f, g, np.asarray(self.posterior.space.free)[i])
-        return cov
+        return bounded_laplace_cov(cov, mode[i], g[0], self.lo[i], self.hi[i])
 
     def _start_points(self, mode: np.ndarray, inflate: float = 1.2) -> np.ndarray:
         """Draws of N(mode, inflate^2 metric) in the working coordinates, each standard normal
