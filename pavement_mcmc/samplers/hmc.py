@@ -163,7 +163,7 @@ class HMCSampler(Sampler):
         """The Laplace covariance, bound coordinates at their exponential scale (:func:`.target.
         bounded_laplace_cov`), none far narrower than the curvature (:mod:`.metric_guard`)."""
         i = self.idx
-        T = probe_points(mode, i, np.sqrt(np.diag(cov)), self.hi)
+        T = probe_points(mode, i, np.sqrt(np.diag(cov)), self.lo, self.hi)
         with np.errstate(all="ignore"):
             f, g, _, _ = self._value_grad(T)
         self.n_prep_evals += T.shape[0]

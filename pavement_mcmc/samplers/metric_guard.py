@@ -35,12 +35,15 @@ from .target import cholesky_of
 RATIO = 10.0
 
 
-def probe_points(mode: np.ndarray, idx: np.ndarray, sd: np.ndarray, hi: np.ndarray) -> np.ndarray:
+def probe_points(mode: np.ndarray, idx: np.ndarray, sd: np.ndarray, lo: np.ndarray,
+                 hi: np.ndarray) -> np.ndarray:
     """The rows where the gradient is taken: ``mode``, then ``mode`` with parameter ``idx[k]``
-    moved by ``sd[k]`` (backwards where its upper bound ``hi`` is within it), for each k."""
-    x = mode[idx]
+    moved by ``sd[k]`` (backwards where its upper bound is within it; where both bounds are,
+    half-way to the farther one: the posterior is never evaluated outside ``[lo, hi]``)."""
+    x, up, down = mode[idx], hi[idx] - mode[idx], mode[idx] - lo[idx]
+    half = np.where(up >= down, 0.5 * up, -0.5 * down)
     T = np.repeat(mode[None, :], idx.size + 1, axis=0)
-    T[1:, idx] = x[None, :] + np.diag(np.where(x + sd <= hi[idx], sd, -sd))
+    T[1:, idx] = x[None, :] + np.diag(np.where(sd <= up, sd, np.where(sd <= down, -sd, half)))
     return T
 
 

@@ -22,6 +22,7 @@ from pavement_mcmc.diagnostics import ess
 from pavement_mcmc.posterior import find_map
 from pavement_mcmc.runs import run_sampler
 from pavement_mcmc.samplers import get_sampler
+from pavement_mcmc.samplers.metric_guard import probe_points
 from pavement_mcmc.samplers.target import bounded_laplace_cov, cholesky_of
 from pavement_mcmc.storage import MemoryStore
 
@@ -140,3 +141,26 @@ def test_case_a_from_a_kappa_sd_shrunk_1e5_converges_like_the_normal_start():
     res0, kept0 = _run(pr.posterior, lap, 1, max_steps=2000)
     assert res0.converged
     _agree(kept, kept0)
+
+
+def test_the_probe_points_stay_inside_the_bounds():
+    """The guard's forward differences never leave [lo, hi] (the solver refuses kappa <= 0): a
+    step of one sd forwards, backwards when the upper bound is within it, half-way to the
+    farther bound when both are. Case A from κ's sd 1e5 too wide (its bounds 1e-3 and 50):
+    the backward step of 1,400 W m-1 K-1 reached the solver with κ < 0 and raised."""
+    lo, hi = np.array([0.0, 0.0, 0.0, -np.inf]), np.array([10.0, 10.0, 1.0, np.inf])
+    mode = np.array([1.0, 9.5, 0.3, 0.0])
+    T = probe_points(mode, np.arange(4), np.array([2.0, 2.0, 5.0, 3.0]), lo, hi)
+    assert np.all((T >= lo) & (T <= hi))
+    np.testing.assert_allclose(np.diag(T[1:] - mode), [2.0, -2.0, 0.35, 3.0])
+
+    from conftest import REPO
+
+    from pavement_mcmc.data import load_case
+    from pavement_mcmc.posterior import build_problem
+
+    pr = build_problem(load_case(REPO / "runs" / "caseA.toml"))
+    lap = find_map(pr.posterior)
+    s = get_sampler("hmc", pr.posterior, n_chains=16, seed=1)
+    s.prepare(laplace=_shrunk(lap, pr.space.free.index("kappa"), 1e5))
+    assert np.all(s.widen == 1.0)  # a metric too wide is left to the windows
