@@ -9,7 +9,9 @@ inf``). Runs are capped at :data:`MAX_STEPS` steps. ``dmean_z`` is the largest d
 a posterior mean from the normal start's (guard on, same seed) in units of the normal run's
 posterior sd; ``sd_ratio`` the range of the posterior sds over the normal start's.
 
-``python benchmarks/bench_metric_guard.py [--quick]`` (quick: seed 1 only).
+``python benchmarks/bench_metric_guard.py [--quick] [--wide]`` (quick: seed 1 only; wide: instead,
+seed 1 from κ's sd 1e3 and 1e5 times the Laplace one, which the guard leaves to the windows,
+each run stopped after 60 s).
 """
 
 from __future__ import annotations
@@ -48,7 +50,7 @@ def shrunk(lap, i: int, factor: float):
     return dataclasses.replace(lap, cov=lap.cov * np.outer(f, f), cov_z=lap.cov_z * np.outer(fz, fz))
 
 
-def one(pr, lap, seed: int, guard: bool) -> tuple[dict, np.ndarray]:
+def one(pr, lap, seed: int, guard: bool, max_seconds: float | None = None) -> tuple[dict, np.ndarray]:
     metric_guard.RATIO = 10.0 if guard else np.inf
     try:
         t0 = time.perf_counter()
@@ -57,7 +59,7 @@ def one(pr, lap, seed: int, guard: bool) -> tuple[dict, np.ndarray]:
             warnings.simplefilter("ignore")
             s.prepare(laplace=lap)
         st = MemoryStore.create(pr.space.free, pr.posterior.blob_names, s.n_chains, {"sampler": "hmc"})
-        res = run_sampler(s, st, ess_target=1000, max_steps=MAX_STEPS)
+        res = run_sampler(s, st, ess_target=1000, max_steps=MAX_STEPS, max_seconds=max_seconds)
         wall = time.perf_counter() - t0
     finally:
         metric_guard.RATIO = 10.0
@@ -67,17 +69,22 @@ def one(pr, lap, seed: int, guard: bool) -> tuple[dict, np.ndarray]:
              "widened": int(np.sum(s.widen > 1.0))}, kept)
 
 
-def run(quick: bool = False) -> list[dict]:
+def run(quick: bool = False, wide: bool = False) -> list[dict]:
     pr = build_problem(load_case(ROOT / "runs" / "caseA.toml"))
     pr.posterior.loglik_and_grad(pr.space.initial()[None])  # compile outside the timing
     lap = find_map(pr.posterior)
     k = pr.space.free.index("kappa")
+    starts = [("normal", lap, (True, False), None),
+              (f"kappa sd x{SHRINK:g}", shrunk(lap, k, SHRINK), (True, False), None)]
+    if wide:
+        starts = [("normal", lap, (True,), None)] + [
+            (f"kappa sd x{f:g}", shrunk(lap, k, f), (True,), 60.0) for f in (1e3, 1e5)]
     rows = []
-    for seed in (1,) if quick else (1, 2, 3):
+    for seed in (1,) if quick or wide else (1, 2, 3):
         ref = None
-        for label, start in (("normal", lap), (f"kappa sd x{SHRINK:g}", shrunk(lap, k, SHRINK))):
-            for guard in (True, False):
-                row, kept = one(pr, start, seed, guard)
+        for label, start, guards, max_seconds in starts:
+            for guard in guards:
+                row, kept = one(pr, start, seed, guard, max_seconds)
                 if ref is None:
                     ref = kept
                 m, sd = ref.mean(0), ref.std(0)
@@ -92,4 +99,4 @@ def run(quick: bool = False) -> list[dict]:
 if __name__ == "__main__":
     from run_all import print_table
 
-    print_table(run(quick="--quick" in sys.argv))
+    print_table(run(quick="--quick" in sys.argv, wide="--wide" in sys.argv))

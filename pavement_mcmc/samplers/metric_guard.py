@@ -4,8 +4,8 @@ The start metric is a Laplace covariance ``Sigma`` at the mode (or one handed in
 far too narrow along a parameter, a trajectory moves that parameter by about the metric's sd,
 and each metric window widens it only by how far the chains diffused in the window (3-9x): from
 a metric whose κ sd was 1e-5 of the Laplace one, Case A under ``hmc`` had not converged after
-38 k steps (R-hat 2.8), where it needs 330 (``benchmarks/bench_metric_guard.py``); a Laplace
-covariance scored with a bound as outside did this to the SoilVUE desert window.
+20 k steps (R-hat 2.1-2.6, seeds 1-3), where it needs 330-410 (``benchmarks/bench_metric_guard.py``);
+a Laplace covariance scored with a bound as outside did this to the SoilVUE desert window.
 
 The check, along each parameter ``i``: the posterior's conditional precision at the mode
 
@@ -18,8 +18,9 @@ as in :func:`.target.bounded_laplace_cov`) against the metric's, :math:`(\Sigma^
 for a Gaussian posterior and its own covariance the two are equal. Where the metric's conditional
 sd is below :data:`RATIO` ``^-1`` times the posterior's, row and column ``i`` of ``Sigma`` are
 scaled by :math:`\sqrt{(\Sigma^{-1})_{ii} / p_i}`: the conditional sds then agree, the
-correlations are kept. A metric too wide is left to the windows (one 10x too wide in sd is
-replaced by the first: ``tests/samplers/test_hmc.py``). Costs ``d`` gradients, no random draw.
+correlations are kept, and the chains start from the widened metric. Costs ``d`` gradients, no
+random draw. A metric too wide is left to the windows: they replace one 10x too wide in sd
+(``tests/samplers/test_hmc.py``), at a cost that grows with it (docs/VALIDATION.md, section 8).
 """
 
 from __future__ import annotations
