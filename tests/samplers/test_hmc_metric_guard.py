@@ -164,3 +164,37 @@ def test_the_probe_points_stay_inside_the_bounds():
     s = get_sampler("hmc", pr.posterior, n_chains=16, seed=1)
     s.prepare(laplace=_shrunk(lap, pr.space.free.index("kappa"), 1e5))
     assert np.all(s.widen == 1.0)  # a metric too wide is left to the windows
+
+
+def test_the_gamma_marginal_start_metric_is_guarded_too(monkeypatch):
+    """The GMRF toy (Case C's form: gamma integrated out, h's metric from the marginal MAP's
+    Laplace covariance): with h_3's row and column of that covariance scaled by 1e-5, the metric
+    is widened back to within 25 % of the normal start's sds, and hmc meets the stopping rule
+    within 2,000 steps with the normal start's posterior."""
+    from test_samplers import ToyGMRF
+
+    from pavement_mcmc.samplers import hmc
+
+    post = ToyGMRF(N=10, seed=3)
+
+    class Shrunk(hmc.MarginalTarget):
+        def __init__(self, *args, **kw):
+            super().__init__(*args, **kw)
+            f = np.ones(self.idx.size)
+            f[3] = SHRINK
+            self.mmap = dataclasses.replace(self.mmap, cov=self.mmap.cov * np.outer(f, f))
+
+    def run(seed):
+        s = get_sampler("hmc", post, n_chains=16, seed=seed)
+        s.prepare()
+        st = MemoryStore.create(post.space.free, post.blob_names, s.n_chains, {"sampler": "hmc"})
+        res = run_sampler(s, st, ess_target=1000, max_steps=2000)
+        return s, res, st.read().chain[res.burn_in:]
+
+    normal, res0, kept0 = run(1)
+    monkeypatch.setattr(hmc, "MarginalTarget", Shrunk)
+    with pytest.warns(UserWarning, match="'h_3'"):
+        s, res, kept = run(1)
+    np.testing.assert_allclose(np.sqrt(np.diag(s.M)), np.sqrt(np.diag(normal.M)), rtol=0.25)
+    assert res0.converged and res.converged, res.reason
+    _agree(kept, kept0)
