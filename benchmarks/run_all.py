@@ -12,7 +12,7 @@ os.environ.setdefault("OMP_NUM_THREADS", "1")
 sys.path.insert(0, os.path.dirname(__file__))
 
 BENCHES = ["bench_solver", "bench_gradient", "bench_samplers", "bench_field", "bench_defaults",
-           "bench_batch"]
+           "bench_batch", "bench_metric_guard"]
 
 
 def print_table(rows: list[dict]) -> None:

@@ -14,28 +14,25 @@ as in :mod:`.marginal_rw`; otherwise the posterior of all free parameters.
 Preparation: the (gamma-marginal) MAP and its Laplace covariance ``Sigma = L L^T``; the chains
 start from it, over-dispersed. Coordinates the mode pushes against a bound (night-time h at 0)
 take the scale of the exponential the posterior has there, ``1/|d log p / d x|``, not the
-curvature's (:func:`.target.bounded_laplace_cov`): on the Göttingen 72-h window the Laplace sd
-of those 43 h was 3.6x too wide and the step size fell to 0.01 (the 64-step cap) for the first
-100 adaptation steps; from the bounded metric it stays at 0.06-0.15 (37k instead of ~110k
-gradients to adapt; Case C to the stopping rule 114k instead of 174k, with the compiled
-reflections below). Dynamics in whitened coordinates ``u = L^{-1} x`` (identity mass):
-leapfrog steps of size ``eps`` (jittered by +-20 % per chain and step, so no trajectory length
-resonates), ``n_leapfrog = ceil(trajectory_length / eps)`` of them. Bounds (h >= 0,
-kappa, C > 0) are hyperplanes in ``u``; a drift that reaches one is reflected specularly there
-(the momentum's component along the plane's normal flips) and continues for the rest of the
+curvature's (:func:`.target.bounded_laplace_cov`; the Göttingen window adapted on a third of the
+gradients). A parameter along which the metric is far narrower than the posterior's curvature at
+the mode (which the windows below cannot widen in time) is widened to it (:mod:`.metric_guard`; d
+gradients; a sound Laplace covariance is left as it is). Dynamics in whitened coordinates ``u =
+L^{-1} x`` (identity mass): leapfrog steps of size ``eps`` (jittered by +-20 % per chain and step,
+so no trajectory length resonates), ``n_leapfrog = ceil(trajectory_length / eps)`` of them. Bounds
+(h >= 0, kappa, C > 0) are hyperplanes in ``u``; a drift that reaches one is reflected specularly
+there (the momentum's component along the plane's normal flips) and continues for the rest of the
 step — volume-preserving and reversible, so the Metropolis test on the total energy keeps the
-chain exact (Neal 2011, "MCMC using Hamiltonian dynamics", 5.5.1.5); compiled, one chain at a
-time (:mod:`.reflect`). The posterior is never evaluated outside the bounds.
+chain exact (Neal 2011, "MCMC using Hamiltonian dynamics", 5.5.1.5); compiled, one chain at a time
+(:mod:`.reflect`). The posterior is never evaluated outside the bounds.
 
 Adaptation (burn-in only, then frozen): ``eps`` by dual averaging towards an acceptance rate of
 ``target_acceptance`` (default 0.8; Hoffman & Gelman 2014), and the metric ``Sigma`` in doubling
 windows (as Stan does): at adaptation step ``metric_at`` (default 50) from the pooled chains since
 step ``metric_skip`` (10), then at ``2 metric_at`` from those since (each 10 % towards the
 correlations of the metric it replaces; ``adapt_metric = False`` keeps the Laplace one); after each
-the dual averaging starts again for the new metric; ``metric_windows = 3`` adds one at
-``4 metric_at`` (the Göttingen 72-h window's ``runs/grass.toml`` uses it: 196k instead of 229k gradients
-for the base fit, 447-512k instead of 643-698k with ``surface_layer``, single seeds; on Case C it
-costs 167k instead of 114k). Adaptation ends 50 steps after the last window (:meth:`adapt_length`).
+the dual averaging starts again for the new metric; ``metric_windows = 3`` adds one at ``4
+metric_at`` (:mod:`.hmc_options`). Adaptation ends 50 steps after the last (:meth:`adapt_length`).
 
 Rough-scale moves (option ``rough_moves``, with a free gamma): after each trajectory, that many
 Metropolis moves scaling h's high-frequency part (:mod:`.rough`; one solve each, then one
@@ -61,6 +58,7 @@ from ..posterior.marginal import gmrf_of
 from .base import Block, Sampler, start_points
 from .coords import LOG, SQRT, Coords, log_metric
 from .hmc_options import AUTO, LEGACY, HMCOptions, resolve, restored
+from .metric_guard import probe_points, widened
 from .reflect import reflect_drift
 from .rough import RoughScale, scale_moves
 from .strays import rejoin, strays
@@ -140,7 +138,7 @@ class HMCSampler(Sampler):
             [self.tlog == SQRT, self.tlog == LOG], [self.options.sqrt_shift, self.options.log_shift], 0.0)
         self._set_coords()
         self._set_metric(log_metric(cov, mode[i], self.tlog, self.shift))
-        if self.tlog.any():  # over-dispersed around the mode in the working coordinates
+        if self.tlog.any() or np.any(self.widen > 1.0):  # around the mode in the working coordinates
             self.theta = self._start_points(mode)
         elif self.marginal:
             self.theta = tg.start_points(self.rng, self.n_chains, cholesky_of(cov))
@@ -162,12 +160,14 @@ class HMCSampler(Sampler):
         self.hpos = np.array([pos[int(c)] for c in self.hcols], dtype=int)
 
     def _bounded(self, mode: np.ndarray, cov: np.ndarray) -> np.ndarray:
-        """The Laplace covariance with the coordinates the mode pushes against a bound given
-        their exponential scale (:func:`.target.bounded_laplace_cov`; one gradient)."""
-        with np.errstate(all="ignore"):
-            _, g, _, _ = self._value_grad(mode[None])
-        self.n_prep_evals += 1
+        """The Laplace covariance, bound coordinates at their exponential scale (:func:`.target.
+        bounded_laplace_cov`), none far narrower than the curvature (:mod:`.metric_guard`)."""
         i = self.idx
+        T = probe_points(mode, i, np.sqrt(np.diag(cov)), self.lo, self.hi)
+        with np.errstate(all="ignore"):
+            f, g, _, _ = self._value_grad(T)
+        self.n_prep_evals += T.shape[0]
+        cov, self.widen = widened(cov, T[:, i], f, g, np.asarray(self.posterior.space.free)[i])
         return bounded_laplace_cov(cov, mode[i], g[0], self.lo[i], self.hi[i])
 
     def _start_points(self, mode: np.ndarray, inflate: float = 1.2) -> np.ndarray:
