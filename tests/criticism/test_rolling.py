@@ -117,15 +117,21 @@ def test_diagnose_points_a_surface_verdict_at_the_rolling_test():
 
     from pavement_mcmc.cli.diagnose import next_step
 
-    def ranking(points_at, replaces_h=False):
+    from pavement_mcmc.criticism.entries import ENERGY
+
+    def ranking(points_at, replaces_h=False, tried=()):
         model = SimpleNamespace(replaces_h=replaces_h)
         return SimpleNamespace(best=None, unexplained=None, points_at=points_at,
+                               entries=[SimpleNamespace(name=n) for n in tried],
                                base=SimpleNamespace(problem=SimpleNamespace(model=model)))
 
     surface = ranking({"where": "surface energy balance", "candidates": []})
     assert "pavement-mcmc rolling <case.toml> <case.toml>+energy_balance_window" in \
         " ".join(next_step(surface))
-    assert not any("rolling" in x for x in next_step(ranking(None)))
+    assert not any("rolling" in x for x in next_step(ranking(None, tried=["two_layer"])))
+    # the energy check named the surface (so the balance was tried) while the best-scoring
+    # candidate acts below it (the desert base fit: two_layer first, h 476 W m-2 K-1)
+    assert any("rolling" in x for x in next_step(ranking(None, tried=["two_layer", ENERGY])))
     # a model whose h(t) is already a law (energy_balance): adding another is no next step
     assert not any("rolling" in x for x in next_step(ranking(surface.points_at, replaces_h=True)))
 
