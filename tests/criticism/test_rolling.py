@@ -116,7 +116,6 @@ def test_diagnose_points_a_surface_verdict_at_the_rolling_test():
     from types import SimpleNamespace
 
     from pavement_mcmc.cli.diagnose import next_step
-
     from pavement_mcmc.criticism.entries import ENERGY
 
     def ranking(points_at, replaces_h=False, tried=()):
