@@ -34,9 +34,8 @@ ROWS = ("chain", "log_prob", "blobs", "accepted")
 #: ("never"); it always takes the in-place way (COPY_ROOM out of reach)
 WRITER = textwrap.dedent(
     """
-    import json, os, resource, signal, sys
-    import numpy as np
-    from pavement_mcmc.storage import HDF5Store, RunState, StoreWriteFailed, recovery
+    import os, resource, signal, sys
+    from pavement_mcmc.storage import HDF5Store, recovery
     path, total, limit, kill_at = sys.argv[1], int(sys.argv[2]), int(sys.argv[3]), sys.argv[4]
     if limit:
         signal.signal(signal.SIGXFSZ, signal.SIG_IGN)
@@ -65,26 +64,11 @@ WRITER = textwrap.dedent(
         HDF5Store._write_rows = rows
     elif kill_at == "committed":  # right after the first commit in place
         after(HDF5Store, "_commit", lambda f: f)
-    m, p = 16, 6
-    try:
-        store = HDF5Store.open_append(path)
-        rng = store.state.make_rng()
-    except FileNotFoundError:
-        store = HDF5Store.create(path, [f"p{i}" for i in range(p)], ["b"], m, {})
-        rng = np.random.default_rng(3)
-    try:
-        while store.n_saved < total:
-            for _ in range(7):
-                x = rng.standard_normal((m, p))
-                store.append(x, x.sum(1), x[:, :1], x[:, 0] > 0)
-            store.flush(RunState.capture(x, x.sum(1), x[:, :1], rng))
-    except StoreWriteFailed as err:
-        print(json.dumps({"error": str(err), "n_saved": err.n_saved}))
-        store.close()
-        sys.exit(3)
-    store.close()
+    sys.path.insert(0, {tests!r})
+    from toy_writer import write
+    write(path, total)
     """
-)
+).replace("{tests!r}", repr(str(Path(__file__).resolve().parent)))
 
 
 def _write(tmp: Path, path: Path, total: int = 1400, limit: int = 0, kill_at: str = "never"):

@@ -38,29 +38,11 @@ LIMITED = textwrap.dedent(
 #: a writer of a toy chain (rows drawn from the stored Generator, so a resume continues it);
 #: it creates the file or continues it, up to argv[2] rows, in blocks of 7
 WRITER = textwrap.dedent(
-    """
-    import json, sys
-    import numpy as np
-    from pavement_mcmc.storage import HDF5Store, RunState, StoreWriteFailed
-    path, total = sys.argv[1], int(sys.argv[2])
-    m, p = 16, 6
-    try:
-        store = HDF5Store.open_append(path)
-        rng = store.state.make_rng()
-    except FileNotFoundError:
-        store = HDF5Store.create(path, [f"p{i}" for i in range(p)], ["b"], m, {})
-        rng = np.random.default_rng(3)
-    try:
-        while store.n_saved < total:
-            for _ in range(7):
-                x = rng.standard_normal((m, p))
-                store.append(x, x.sum(1), x[:, :1], x[:, 0] > 0)
-            store.flush(RunState.capture(x, x.sum(1), x[:, :1], rng))
-    except StoreWriteFailed as err:
-        print(json.dumps({"error": str(err), "n_saved": err.n_saved}))
-        store.close()
-        sys.exit(3)
-    store.close()
+    f"""
+    import sys
+    sys.path.insert(0, {str(Path(__file__).resolve().parent)!r})
+    from toy_writer import write
+    write(sys.argv[1], int(sys.argv[2]))
     """
 )
 
