@@ -80,7 +80,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .fitting import Fit
-from .residuals import pooled_lag1
+from .residuals import inflation, pooled_lag1
 
 #: total score above which a candidate may be claimed (2 ln Bayes factor, "very strong")
 THRESHOLD = 10.0
@@ -150,7 +150,7 @@ def coherent_profile(values: dict[str, float], min_share: float = 0.25) -> bool:
 def score(ref: Fit, cand: Fit) -> tuple[float, float, float]:
     """``(S_c, D_c, rho_c)`` of ``cand`` against ``ref`` (module doc)."""
     rho = pooled_lag1(cand.residuals)
-    phi = (1 + rho) / (1 - rho)
+    phi = inflation(rho)
     log_n = math.log(cand.residuals.size / phi)
     dp = cand.p_eff - ref.p_eff
     data = (ref.chi2 - cand.chi2) / phi

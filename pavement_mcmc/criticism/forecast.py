@@ -40,7 +40,7 @@ from ..posterior.logpost import default_streams
 from ..posterior.observations import with_parameters
 from ..posterior.surface_ir import SurfaceIR
 from .fitting import Fit, refit
-from .residuals import pooled_lag1
+from .residuals import inflation, pooled_lag1
 
 _LOG_2PI = np.log(2 * np.pi)
 
@@ -294,7 +294,7 @@ def forecast_gain(base: Forecast, cand: Forecast) -> float:
 def gain(n: int, rho: float, rmse_base: float, rmse_cand: float) -> float:
     """:func:`forecast_gain` from the base forecast's ``n`` and lag-1 ``rho`` and the two RMSEs
     (any one unit)."""
-    phi = (1 + rho) / (1 - rho)
+    phi = inflation(rho)
     return float(n / phi * np.log(rmse_base**2 / max(rmse_cand**2, 1e-300)))
 
 
@@ -302,7 +302,7 @@ def ratio_for_gain(n: int, rho: float, F: float) -> float:
     """The factor by which a candidate must cut the base forecast's RMSE for :func:`gain` to
     reach ``F``: exp(F phi / 2n). Few effective held-out values (smooth errors, a short
     horizon) make a margin out of reach of any candidate."""
-    phi = (1 + rho) / (1 - rho)
+    phi = inflation(rho)
     return float(np.exp(F * phi / (2.0 * n)))
 
 
@@ -310,7 +310,7 @@ def plugin_gain(base: Forecast, cand: Forecast) -> float:
     r""":math:`2(\mathrm{elpd}_c - \mathrm{elpd}_r)/\phi_r` with the plug-in Gaussian density of
     each datum (sd: the measurement's): a supporting figure, not the claim statistic
     (:func:`forecast_gain`)."""
-    phi = (1 + base.rho) / (1 - base.rho)
+    phi = inflation(base.rho)
     return float(2.0 * (cand.elpd - base.elpd) / phi)
 
 

@@ -30,7 +30,7 @@ import numpy as np
 
 from ..physics import Extension, Model
 from ..solver.grid import Grid
-from .forecast import split_rows
+from .forecast import gain, split_rows
 from .residuals import pooled_lag1
 
 #: where a candidate acts (:func:`where_acts`) for the ground forecast to credit it
@@ -127,8 +127,7 @@ def ground_forecast(problem, fc) -> GroundForecast:
 
 def ground_gain(base: GroundForecast, cand: GroundForecast) -> float:
     """:math:`F^g_c` (module doc)."""
-    phi = (1 + base.rho) / (1 - base.rho)
-    return float(base.n / phi * np.log(base.rmse**2 / max(cand.rmse**2, 1e-300)))
+    return gain(base.n, base.rho, base.rmse, cand.rmse)
 
 
 def ground_forecast_or_none(problem, fc) -> GroundForecast | None:

@@ -66,6 +66,13 @@ def pooled_lag1(r: np.ndarray) -> float:
     return float(np.clip(np.mean([lag1(r[:, s]) for s in range(r.shape[1])]), 0.0, 0.98))
 
 
+def inflation(rho: float) -> float:
+    """phi = (1 + rho) / (1 - rho): how many correlated values of lag-1 ``rho`` count as one
+    independent value (an AR(1) series' variance inflation of a mean); ``n / phi`` is the
+    effective count of ``n`` such values."""
+    return (1 + rho) / (1 - rho)
+
+
 def harmonic(t: np.ndarray, y: np.ndarray, period: float = DAY) -> tuple[float, float]:
     """Amplitude and phase (s, time of the maximum within a period) of the ``period`` harmonic.
 

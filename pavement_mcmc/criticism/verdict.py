@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from .entries import DATA_THRESHOLD, ENERGY, FORECAST_THRESHOLD, LOSO_NONE
 from .forecast import ratio_for_gain
-from .residuals import ResidualReport, noise_like
+from .residuals import ResidualReport, inflation, noise_like
 
 #: share of the excess misfit a claimed candidate removes above which its leftover is "the size
 #: of the noise": a "none of these" after it is about the leftover's time structure alone
@@ -138,7 +138,7 @@ def _reach(fbase) -> str:
     n, rho = getattr(fbase, "n", None), getattr(fbase, "rho", None)
     if not n or rho is None:
         return ""
-    phi, cut = (1 + rho) / (1 - rho), ratio_for_gain(n, rho, FORECAST_THRESHOLD)
+    phi, cut = inflation(rho), ratio_for_gain(n, rho, FORECAST_THRESHOLD)
     return (f" The held-out errors are smooth (lag-1 {rho:.2f}: {n / phi:.1f} effective values of "
             f"{n}), so passing the margin asks a forecast RMSE {cut:.2f} times smaller.")
 
@@ -161,7 +161,7 @@ def energy_sentence(entries, base, fbase) -> str:
     why = ([f"F <= {FORECAST_THRESHOLD:g}"] if e.forecast_gain <= FORECAST_THRESHOLD else []) + (
         ["it fits worse in sample"] if e.score < -e.threshold else []) + (
         [f"{', '.join(e.at_bound)} at a bound"] if e.at_bound else [])
-    phi = (1 + fbase.rho) / (1 - fbase.rho)
+    phi = inflation(fbase.rho)
     return txt + (f": not named by forecast ({'; '.join(why)}; the {fbase.n} held-out data, "
                   f"lag-1 {fbase.rho:.2f}, count as {fbase.n / phi:.1f} independent ones).")
 
