@@ -28,13 +28,21 @@ def load_point(path: str | Path, statistic: str = "mean"):
     return problem, values, f"posterior {statistic}", pth.name
 
 
-def case_problem(path: str | Path, overrides: dict | None = None):
-    """``(problem, label)`` of ``CASE.toml+ext1+ext2`` (see :func:`load_point`), with
-    ``overrides`` (e.g. another ``data.window_hours``) applied to the case."""
+def case_config(path: str | Path, overrides: dict | None = None):
+    """``(config, label)`` of ``CASE.toml+ext1+ext2`` (see :func:`load_point`), with
+    ``overrides`` (e.g. another ``data.window_hours``) applied to the case: its data read, no
+    model built (cheap)."""
     from ..runs.start import resolve_finer_h
 
     base, *added = str(path).split("+")
     pth = Path(base)
     ov, rest = resolve_finer_h(pth, dict(overrides or {}), added)
     cfg = load_case(pth, ov or None, additions={"model": {"extensions": rest}} if rest else None)
-    return build_problem(cfg), cfg.name + "".join(f"+{a}" for a in added)
+    return cfg, cfg.name + "".join(f"+{a}" for a in added)
+
+
+def case_problem(path: str | Path, overrides: dict | None = None):
+    """``(problem, label)`` of :func:`case_config`'s case (building it may fit a MAP: a case
+    that integrates its inputs' noise out linearises there)."""
+    cfg, label = case_config(path, overrides)
+    return build_problem(cfg), label

@@ -35,8 +35,9 @@ from threadpoolctl import threadpool_limits
 
 from ..data import ConfigError, record_times
 from ..data.times import format_time, parse_time, seconds_between
+from ..posterior.problem import case_measurements
 from .forecast import forecast, gain
-from .point import case_problem
+from .point import case_config, case_problem
 
 #: one-sided level of the sign test that names the law
 LEVEL = 0.05
@@ -175,8 +176,12 @@ def _starts(rows: np.ndarray, case: str, window_h: float, horizon_h: float, step
     return out
 
 
-def _one(case: str, a: float, window_h: float, horizon_h: float, max_nfev: int):
-    problem, label = case_problem(case, {"data": {"window_hours": [a, a + window_h + horizon_h]}})
+def _window(a: float, window_h: float, horizon_h: float) -> dict:
+    return {"data": {"window_hours": [a, a + window_h + horizon_h]}}
+
+
+def _one(case: str, a: float, window_h: float, horizon_h: float, max_nfev: int, built=None):
+    problem, label = built or case_problem(case, _window(a, window_h, horizon_h))
     fc = forecast(problem, origins=[window_h], horizon=horizon_h, max_nfev=max_nfev)
     return fc, fc.fits[-1].rmse, label
 
@@ -209,20 +214,22 @@ def rolling_forecast(base: str | Path, law: str | Path, *, window_h: float = WIN
 def _rolling(base, law, window_h, horizon_h, step_h, start_h, days, max_nfev, progress) -> Rolling:
     times = record_times(_toml(base))
     starts = _starts(_hours(times), str(base), window_h, horizon_h, step_h, start_h, days)
-    # a bad case or extension, or two records, fail before any fit
-    first = {"data": {"window_hours": [starts[0], starts[0] + window_h + horizon_h]}}
-    mb, ml = (case_problem(c, first)[0].meas for c in (base, law))
+    # two records fail on their data alone; a bad case or extension when the first window's
+    # models are built (which may fit a MAP, for inputs' noise): both before the rolling fits
+    first = _window(starts[0], window_h, horizon_h)
+    mb, ml = (case_measurements(case_config(c, first)[0]) for c in (base, law))
     same = (record_times(_toml(law)) == times and np.array_equal(mb.depths, ml.depths)
             and np.array_equal(mb.t, ml.t) and np.allclose(mb.T_obs, ml.T_obs, equal_nan=True))
     if not same:
         raise ConfigError(f"{base} and {law} read different records or sensors (their times or "
                           "observed temperatures differ): the two cases must be fitted to the "
                           "same data")
+    built = {c: case_problem(c, first) for c in (str(base), str(law))}  # the first window's
     t0 = parse_time(times[0]).timestamp()
     out = None
     for i, a in enumerate(starts):
-        fb, fit_b, label_b = _one(str(base), a, window_h, horizon_h, max_nfev)
-        fl, fit_l, label_l = _one(str(law), a, window_h, horizon_h, max_nfev)
+        fb, fit_b, label_b = _one(str(base), a, window_h, horizon_h, max_nfev, built.pop(str(base), None))
+        fl, fit_l, label_l = _one(str(law), a, window_h, horizon_h, max_nfev, built.pop(str(law), None))
         if out is None:
             out = Rolling(label_b, label_l, float(window_h), float(horizon_h))
         day = Day(start_h=a, time=format_time(t0 + a * 3600.0), base_rmse=fb.rmse,

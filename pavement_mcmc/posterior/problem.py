@@ -77,13 +77,19 @@ def build_problem(cfg, extensions=None, h_spec: dict | None = None, *,
     return Problem(cfg, model, space, posterior, ref, grid_chosen)
 
 
+def case_measurements(cfg):
+    """The measurements a case's model sees: its record, with the shallowest sensor as the
+    boundary under ``[model] top = "measured"`` (no model built)."""
+    if cfg.model.get("top", "surface") == "measured":
+        return cfg.measurements.with_measured_top()
+    return cfg.measurements
+
+
 def _assemble(cfg, extensions, h_spec, given: Grid | None = None):
     """Model, parameter space, posterior and the grid's choice of a case (a ValueError for a bad
     config value)."""
     model_cfg = cfg.model
-    meas = cfg.measurements
-    if model_cfg.get("top", "surface") == "measured":
-        meas = meas.with_measured_top()
+    meas = case_measurements(cfg)
     grid_cfg = cfg.grid
     basis = HBasis.from_config(meas.t, h_spec or model_cfg.get("h", {"kind": "per_interval"}))
     exts = model_cfg.get("extensions", []) if extensions is None else extensions
