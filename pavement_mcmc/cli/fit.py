@@ -87,9 +87,14 @@ def _energy_line(out) -> str | None:
     pb = out.problem
     if not any(isinstance(e, EnergyBalance) for e in pb.model.extensions):
         return None
+    from ..criticism.tower import tower_check
+
     p = {k: np.array([v]) for k, v in pb.space.value_dict().items()}
     p.update({r["parameter"]: np.array([r["mean"]]) for r in out.table})
-    return energy_partition(pb.model, p).summary_text() + " (posterior mean; bands in the report)"
+    part = energy_partition(pb.model, p)
+    tower = tower_check(part, pb.meas)
+    return (part.summary_text() + " (posterior mean; bands in the report)"
+            + ("" if tower is None else "\n" + tower.text()))
 
 
 def _chosen_line(chosen: dict) -> str:

@@ -11,7 +11,11 @@ right. Three numbers tell the surface boundary apart from the conduction below i
    h(t) standing in for a flux that is not convection);
 2. a fit with the shallowest sensor as a measured top (no surface balance at all): its
    kappa/C is the conduction's own answer, and with a heat-flux plate its kappa too;
-3. the fitted flux at each plate against the plate's readings.
+3. the fitted flux at each plate against the plate's readings;
+4. with a flux tower's H and LE in the record, the share of the net radiation they leave for
+   the ground, R_n - H - LE, at midday (:func:`.tower.tower_ground_share`): an upper bound of
+   the true share, since towers miss part of the turbulent flux; a fit that pushes more than
+   :data:`.tower.TOL` of R_n beyond it into the ground is wrong at the surface.
 
 If the full fit's kappa/C agrees with the measured-top fit's but its kappa (or its flux at the
 plate) does not, conduction is fine and the surface boundary is what is wrong.
@@ -29,6 +33,7 @@ from ..physics.materials import check_values, declared_material
 from ..posterior import build_problem
 from .fitting import refit
 from .ground import GROUND_HOOKS, where_acts
+from .tower import TOL, tower_ground_share
 
 #: shares of the net radiation that reach the ground at midday, by surface (Oke 1987, ch. 2-4)
 MIDDAY_SHARE = {"grass or crop": (0.05, 0.2), "bare soil": (0.2, 0.4), "pavement": (0.3, 0.6)}
@@ -50,6 +55,8 @@ class EnergyBalance:
         the reading, "factor": the fitted calibration factor, "rmse": of the fitted reading}``.
     findings : the fit's estimates outside plausible ranges.
     verdict : plain words.
+    tower_share : the share of R_n at midday a flux tower's H and LE leave for the ground
+        (None without a tower).
     """
 
     G_surface: np.ndarray
@@ -60,6 +67,7 @@ class EnergyBalance:
     plates: dict = field(default_factory=dict)
     findings: list = field(default_factory=list)
     verdict: str = ""
+    tower_share: float | None = None
 
     @property
     def surface_wrong(self) -> bool:
@@ -70,7 +78,7 @@ class EnergyBalance:
         return {"midday_share": self.midday_share, "diffusivity": self.diffusivity,
                 "kappa": self.kappa, "top": self.top, "plates": self.plates,
                 "findings": [f.text() for f in self.findings], "verdict": self.verdict,
-                "surface_wrong": self.surface_wrong}
+                "surface_wrong": self.surface_wrong, "tower_share": self.tower_share}
 
     def text(self) -> str:
         lines = [f"fitted ground heat flux at midday: {100 * self.midday_share:.0f} % of net "
@@ -87,6 +95,9 @@ class EnergyBalance:
             lines.append(f"plate {lab}: the model's conductive flux there = {v['slope']:.2f} x the "
                          f"reading (fitted calibration factor {v['factor']:.2f}; plates read within "
                          f"+-20-30 %), RMSE {v['rmse']:.1f} W m-2")
+        if self.tower_share is not None:
+            lines.append(f"flux tower: R_n - H - LE at midday {100 * self.tower_share:.0f} % of net "
+                         "radiation (an upper bound: towers miss part of H and LE)")
         lines += [f.text() for f in self.findings]
         lines.append(self.verdict)
         return "\n".join(lines)
@@ -124,7 +135,8 @@ def energy_balance(problem, values: dict[str, float], *, top_fit: bool = True) -
     h = [vals[n] for n in space.free if space[n].group == "h"]
     declared = declared_material(problem)
     findings = check_values(kappa, C, h or None, declared)
-    eb = EnergyBalance(G, share, kappa / C, kappa, top, plates, findings)
+    eb = EnergyBalance(G, share, kappa / C, kappa, top, plates, findings,
+                       tower_share=tower_ground_share(model.meas))
     eb.verdict = _verdict(eb)
     return eb
 
@@ -156,8 +168,13 @@ def _verdict(eb: EnergyBalance) -> str:
     off = None if eb.top is None else eb.diffusivity / eb.top["diffusivity"] - 1.0
     kappa_off = (eb.top is not None and eb.top.get("from_plate")
                  and not 0.5 <= eb.kappa / eb.top["kappa"] <= 2.0)
-    if alarms or plate_off or kappa_off or h_alarm:
+    tower_off = eb.tower_share is not None and eb.midday_share > eb.tower_share + TOL
+    if alarms or plate_off or kappa_off or h_alarm or tower_off:
         why = []
+        if tower_off:
+            why.append(f"the fit pushes {100 * eb.midday_share:.0f} % of the midday net radiation "
+                       f"into the ground where the flux tower's H and LE leave at most "
+                       f"{100 * eb.tower_share:.0f} %")
         if alarms:
             why.append("kappa or C is physically impossible")
         if h_alarm:
@@ -182,7 +199,11 @@ def _verdict(eb: EnergyBalance) -> str:
         return ("Conduction itself disagrees: kappa/C differs from the measured-top fit's by "
                 f"{100 * abs(off):.0f} % (layers, sensor depths or a temperature-dependent "
                 "conductivity, below the surface).")
-    if eb.top is None and not eb.plates:
+    if eb.top is None and not eb.plates and eb.tower_share is None:
         return ("Nothing here says the energy entering the ground is wrong: kappa, C and h are "
-                "possible (no measured-top fit or plate checked it).")
-    return "The energy entering the ground is consistent with the measured-top fit and the plates."
+                "possible (no measured-top fit, plate or flux tower checked it).")
+    checks = [name for name, done in (("the measured-top fit", eb.top is not None),
+                                       ("the plates", bool(eb.plates)),
+                                       ("the flux tower", eb.tower_share is not None)) if done]
+    return ("The energy entering the ground is consistent with " + " and ".join(checks) + "."
+            if checks else "The energy entering the ground is consistent.")

@@ -35,6 +35,12 @@ def _diurnal(hod: np.ndarray, values: np.ndarray, step: float) -> tuple[np.ndarr
     return 0.5 * (edges[1:] + edges[:-1]), out
 
 
+def _diurnal_nan(hod: np.ndarray, values: np.ndarray, step: float) -> np.ndarray:
+    """:func:`_diurnal` of one series with gaps (NaN): the mean of each bin's known values."""
+    known = np.isfinite(values)
+    return _diurnal(hod[known], values[known][None, :], step)[1][0]
+
+
 def plot_energy_balance(
     t_obs: np.ndarray,
     Rn: np.ndarray,
@@ -46,6 +52,7 @@ def plot_energy_balance(
     level: float = 95.0,
     fig: Figure | None = None,
     off: np.ndarray | None = None,
+    measured: dict | None = None,
 ) -> Figure:
     """H, LE and G through the window and through the mean day, beside the net radiation.
 
@@ -61,6 +68,8 @@ def plot_energy_balance(
     level : credible level of the bands, %.
     off : (n_draws, n_obs) the net radiation other surface terms keep off the spot (a
         ``shading`` shadow), drawn when given: then Rn = H + LE + G + off.
+    measured : a flux tower's ``{"H": (n_obs,), "LE": (n_obs,)}`` (W m-2, NaN where missing),
+        drawn as dots in each flux's colour.
     """
     t = hours(t_obs)
     draws = {k: np.atleast_2d(np.asarray(v, float)) for k, v in (("H", H), ("LE", LE), ("G", G))}
@@ -72,6 +81,10 @@ def plot_energy_balance(
     ax.plot(t, Rn, color="k", lw=1.2, label="net radiation Rn (measured)")
     for key, label, colour in fluxes:
         _band(ax, t, draws[key], colour, label, level)
+    tower = {k: np.asarray(v, float) for k, v in (measured or {}).items()}
+    for key, _label, colour in fluxes:
+        if key in tower:
+            ax.plot(t, tower[key], ".", color=colour, ms=3, label=f"{key} measured (flux tower)")
     ax.axhline(0, color="0.5", lw=0.8)
     ax.set_xlabel(time_label(time0))
     ax.set_ylabel("flux (W m⁻²): Rn = H + LE + G" + (" + off" if "off" in draws else ""))
@@ -85,6 +98,9 @@ def plot_energy_balance(
     ax2.plot(x, rn[0], color="k", lw=1.2, label="Rn")
     for key, _label, colour in fluxes:
         _band(ax2, x, _diurnal(hod, draws[key], step)[1], colour, key, level)
+        if key in tower:
+            with np.errstate(invalid="ignore"):
+                ax2.plot(x, _diurnal_nan(hod, tower[key], step), "o", color=colour, ms=3)
     ax2.axhline(0, color="0.5", lw=0.8)
     ax2.set_xlim(0, 24)
     ax2.set_xticks(range(0, 25, 6))

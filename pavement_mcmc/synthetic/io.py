@@ -55,7 +55,7 @@ def write_case(spec: SyntheticSpec, directory: str | Path, name: str | None = No
 
 
 def _decimals(column: str) -> int:
-    return 1 if column.startswith("G_") else _DECIMALS.get(column, 2)
+    return 1 if column.startswith("G_") or column in ("H", "LE") else _DECIMALS.get(column, 2)
 
 
 def truth_record(spec: SyntheticSpec, truth: Truth, name: str) -> dict:

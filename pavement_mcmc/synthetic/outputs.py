@@ -66,3 +66,14 @@ def plate_columns(spec, names: list[str], flux: np.ndarray, rng: np.random.Gener
         gain = spec.plate_factor * (1.0 + spec.plate_rel_noise * plate_noise[:, 2 * j])
         readings[name] = gain * flux[:, j] + spec.plate_abs_noise * plate_noise[:, 2 * j + 1]
     return readings, flux_true
+
+
+def tower_columns(closure: float, H: np.ndarray, LE: np.ndarray,
+                  rng: np.random.Generator) -> dict[str, np.ndarray]:
+    """A flux tower's ``H`` and ``LE`` (W m-2, leaving the surface) from the true fluxes: each
+    ``closure`` x true x (1 + 0.1 N1) + 5 N2 (see ``SyntheticSpec.tower``)."""
+    out = {}
+    for name, flux in (("H", H), ("LE", LE)):
+        n1, n2 = rng.standard_normal((2, flux.size))
+        out[name] = closure * np.asarray(flux, float) * (1.0 + 0.1 * n1) + 5.0 * n2
+    return out

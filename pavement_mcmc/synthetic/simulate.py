@@ -17,6 +17,7 @@ from .outputs import (
     recorded_temperatures,
     sensor_readings,
     sensor_temperatures,
+    tower_columns,
 )
 from .processes import rain_per_row
 from .weather import make_weather
@@ -78,6 +79,11 @@ class SyntheticSpec:
     et_available : available energy of the ``evapotranspiration`` effect: "net_minus_ground"
         (R_n - G, Priestley-Taylor's) or "net" (R_n alone, the form of the inversion's
         ``energy_balance`` entry).
+    tower : closure of a flux tower over the twin (0: none): with 0.85, say, ``H`` and ``LE``
+        columns (W m-2, leaving the surface) read 0.85 x the true sensible heat h (T_s - T_air)
+        and latent heat (evapotranspiration and evaporation), each x (1 + 0.1 N1) + 5 N2 W m-2
+        (N1, N2 from their own random stream): a tower that misses part of the turbulent flux,
+        as real ones do (their H + LE typically close 70-90 % of R_n - G).
     """
 
     kappa: float = 1.31
@@ -108,6 +114,7 @@ class SyntheticSpec:
     plate_rel_noise: float = 0.05
     plate_abs_noise: float = 2.0
     et_available: str = "net_minus_ground"
+    tower: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -277,6 +284,10 @@ def simulate(spec: SyntheticSpec) -> tuple[dict[str, np.ndarray], Truth]:
     flux = conductive_flux(ground.column, profiles, ground.plate_z, ground.beta)
     plates, flux_true = plate_columns(spec, flux_columns(spec), flux, rng_plates, clock.n_rows, keep)
     columns.update(plates)
+    if spec.tower > 0:  # its own random stream (the 5th child): the others stay unchanged
+        H = fo.h[lv] * (profiles[:, 0] - fo.T_air[lv])
+        columns.update(tower_columns(spec.tower, H, run.latent[lv] + q_evap_rows,
+                                     np.random.default_rng(seq.spawn(1)[0])))
 
     truth = Truth(
         kappa=spec.kappa, C=spec.C, sigma=spec.sigma, h_obs=fo.h[lv], effects=effects, t=t_rows,

@@ -113,7 +113,7 @@ def test_an_impossible_h_names_the_surface_boundary():
     assert eb.surface_wrong and "476 W m-2 K-1" in eb.verdict and "conduction is fine" in eb.verdict
     quiet = _eb([])
     assert not quiet.surface_wrong and "measured-top fit and the plates" not in quiet.verdict
-    assert "no measured-top fit or plate" in quiet.verdict
+    assert "no measured-top fit, plate or flux tower" in quiet.verdict
 
 
 DESERT = Path(__file__).resolve().parents[2].parent / "shared" / "data" / "soilvue_utah" / "measurements.csv"

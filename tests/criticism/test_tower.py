@@ -1,0 +1,106 @@
+"""A flux tower's H and LE as a check of the surface energy balance (criticism/tower.py): twins
+from the independent simulator with a tower that closes 85 % of the balance
+(``SyntheticSpec.tower``), fitted by the inversion's own laws."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from pavement_mcmc.criticism import refit
+from pavement_mcmc.criticism.energy import EnergyBalance, _verdict, energy_balance
+from pavement_mcmc.criticism.point import case_problem
+from pavement_mcmc.criticism.tower import TOL, tower_check, tower_fluxes, tower_ground_share
+from pavement_mcmc.physics.catalogue.energy import Partition, energy_partition
+from pavement_mcmc.synthetic.corpus import forecast_twins, write_twin
+
+NO_LE = {"parameters": {"eb_alpha": {"value": 0.0, "vary": False}}}
+
+
+def _tower_twin(tmp_path, effects, seed):
+    twin = forecast_twins(effects, (seed,), hours=72.0,
+                          spec={"tower": 0.85, "et_available": "net"})[0]
+    return write_twin(twin, tmp_path / twin.name)
+
+
+def _partition_at_map(case, overrides=None):
+    pb, _ = case_problem(f"{case}+energy_balance_window", overrides)
+    v = {**pb.space.value_dict(), **refit(pb).values()}
+    return pb, energy_partition(pb.model, {k: np.array([x]) for k, x in v.items()})
+
+
+def test_shares_closure_and_agreement_by_hand():
+    Rn = np.array([[0.0, 100.0, 400.0, 300.0, 0.0]])
+    H, LE, G = (np.array([[0.0, 10.0, k * 100.0, k * 75.0, 0.0]]) for k in (1.0, 2.0, 0.6))
+    part = Partition(np.arange(5.0), Rn, H, LE, G)
+
+    class Meas:  # midday rows: 400 and 300 W m-2
+        q_net = Rn[0]
+        extras = {"H": np.array([0.0, 5.0, 80.0, 60.0, np.nan]),
+                  "LE": np.array([0.0, 5.0, 200.0, 150.0, 0.0])}
+
+    tc = tower_check(part, Meas)
+    # closure (80 + 60 + 200 + 150) / (700 - 105) over the midday rows
+    assert tc.closure == pytest.approx(490.0 / 595.0)
+    h = tc.fluxes["H"]
+    assert h["implied"] == pytest.approx(175.0 / 700.0) and h["measured"] == pytest.approx(0.2)
+    assert h["closed"] == pytest.approx(0.2 / tc.closure) and h["agrees"]
+    assert h["bias"] == pytest.approx(np.mean([0.0, 5.0, 20.0, 15.0]))  # the NaN row left out
+    assert tc.fluxes["LE"]["implied"] == pytest.approx(0.5) and tc.fluxes["LE"]["agrees"]
+    assert tower_ground_share(Meas) == pytest.approx((700.0 - 490.0) / 700.0)
+    Meas.extras = {"LE": Meas.extras["LE"] * 0.3}  # a tower that sees a third of it
+    far = tower_check(part, Meas)
+    assert far.closure is None and set(far.fluxes) == {"LE"} and not far.agrees
+    assert tower_ground_share(Meas) is None  # needs both
+    Meas.extras = {}
+    assert tower_check(part, Meas) is None
+
+
+def test_the_tower_agrees_with_the_law_that_made_the_twin_and_refutes_a_fit_without_latent_heat(tmp_path):
+    case = _tower_twin(tmp_path, ("evapotranspiration",), 1)
+    pb, part = _partition_at_map(case)
+    assert set(tower_fluxes(pb.meas)) == {"H", "LE"}
+    tc = tower_check(part, pb.meas)
+    assert tc.agrees, tc.text()
+    assert 0.75 < tc.closure < 0.95  # the twin's tower closes 85 %
+    dry_pb, dry = _partition_at_map(case, NO_LE)
+    wrong = tower_check(dry, dry_pb.meas)
+    assert not wrong.fluxes["LE"]["agrees"] and not wrong.fluxes["H"]["agrees"], wrong.text()
+    assert wrong.fluxes["LE"]["bias"] < -50  # the latent heat it leaves out, W m-2
+    assert "DISAGREES" in wrong.text() and "DISAGREES" not in tc.text()
+
+
+def test_the_report_and_the_fit_line_show_the_tower(tmp_path):
+    from types import SimpleNamespace
+
+    from pavement_mcmc.cli.fit import _energy_line
+    from pavement_mcmc.report.energy import energy_section
+
+    case = _tower_twin(tmp_path, ("evapotranspiration",), 1)
+    pb, _ = _partition_at_map(case)
+    th = pb.space.initial()[None, :].repeat(3, axis=0)
+
+    class View:
+        def draws(self, n):
+            return th[:n]
+
+    frag, (fig,) = energy_section(pb, View(), n_draws=3)
+    assert "flux tower" in frag
+    labels = [ln.get_label() for ln in fig.axes[0].get_lines()]
+    assert "H measured (flux tower)" in labels and "LE measured (flux tower)" in labels
+    line = _energy_line(SimpleNamespace(problem=pb, table=[]))
+    assert "flux tower at midday" in line and "LE/Rn" in line.splitlines()[-1]
+
+
+def test_the_energy_check_reads_the_tower(tmp_path):
+    """The base fit (free h) of twins with a tower: the fitted ground flux at midday stays under
+    what the tower leaves for it (an upper bound; no alarm), and a fit that pushes far more
+    into the ground is named at the surface by the tower alone."""
+    for effects, seed in ((("evapotranspiration",), 1), ((), 3)):
+        pb, _ = case_problem(_tower_twin(tmp_path, effects, seed))
+        eb = energy_balance(pb, refit(pb).values(), top_fit=False)
+        assert eb.tower_share is not None and eb.midday_share <= eb.tower_share + TOL, eb.text()
+        assert not eb.surface_wrong and "flux tower" in eb.text() and "flux tower" in eb.verdict
+    grassy = EnergyBalance(np.zeros(3), 1.07, 4.8e-7, 12.8, None, {}, [], tower_share=0.18)
+    grassy.verdict = _verdict(grassy)
+    assert grassy.surface_wrong and "107 %" in grassy.verdict and "18 %" in grassy.verdict
