@@ -82,11 +82,18 @@ DRY = {"parameters": {"eb_alpha": {"value": 0.0, "vary": False}}}
 #: ... and the coefficient(s) free again (runs/desert_energy.toml fixes them)
 WET = {"parameters": {"eb_alpha": {"value": 0.5, "vary": True}}}
 #: record -> (case TOML, extensions (None: as is), overrides, first window start h, days)
+#: the site's geometry held at the 72 h window's posterior means (``pavement-mcmc fit
+#: runs/desert_energy.toml``, seed 1): the shadow's hours and the top layer's depth do not change
+#: from day to day; the shadow's share, the H coefficient and the soil's properties stay free
+SITE = {"parameters": {"shade_start": {"value": 4.741, "vary": False},
+                       "shade_length": {"value": 15.43, "vary": False},
+                       "d_layer": {"value": 0.126, "vary": False}}}
 DAILY = {"grass": ("grass_energy.toml", None, {}, 0.0, 18),
          "desert": ("desert_energy.toml", None, {}, 2928.0, 30),
          "desert_one_layer": ("desert_energy.toml", ["energy_balance_window"], DRY, 2928.0, 30),
          "desert_no_ir": ("desert.toml", ["energy_balance_window"], DRY, 2928.0, 30),
-         "desert_alpha": ("desert_energy.toml", ["energy_balance_window"], WET, 2928.0, 30)}
+         "desert_alpha": ("desert_energy.toml", ["energy_balance_window"], WET, 2928.0, 30),
+         "desert_site": ("desert_energy.toml", None, SITE, 2928.0, 30)}
 
 
 def forecast_values(problem, fit_problem, values: dict[str, float]) -> dict[str, np.ndarray]:
