@@ -218,6 +218,8 @@ class Entry:
         (:func:`~.forecast.plugin_gain`), a supporting figure.
     ground_gain : its ground-forecast gain :math:`F^g_c` (:mod:`.ground`; ground and sensor
         candidates with the ground forecast on, else None); ``ground_rmse_sigma`` its RMSE.
+    tower : the surface energy balance's implied H and LE against a flux tower in the record
+        (:meth:`.tower.TowerCheck.to_dict`; None without a tower or for other candidates).
     threshold, data_threshold : the claim thresholds.
     fit : the refit (not serialised).
     """
@@ -250,6 +252,7 @@ class Entry:
     plugin_gain: float | None = None
     ground_gain: float | None = None
     ground_rmse_sigma: float | None = None
+    tower: dict | None = None
     threshold: float = THRESHOLD
     data_threshold: float = DATA_THRESHOLD
     fit: Fit | None = field(default=None, repr=False)

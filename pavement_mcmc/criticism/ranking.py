@@ -78,6 +78,7 @@ from .ground import GROUND_HOOKS, ground_forecast_or_none, ground_gain, where_ac
 from .holdout import leave_one_sensor_out
 from .holdout import out_of_sensor as sensor_holdout
 from .residuals import ResidualReport, analyse_point, noise_like, plain_signals
+from .tower import fit_tower
 from .unexplained import unexplained
 from .verdict import claimable_by, make_verdict, missed_sensors, sensor_list, stopped
 
@@ -296,6 +297,7 @@ def rank_missing_effects(
         entries.append(_entry(ext.name, desc, base, fit, ext, patterns, impossible, declared))
     for e in entries:
         e.threshold = threshold
+        e.tower = fit_tower(e.fit) if e.name == ENERGY else None
     fbase = _forecasts(base, entries, forecast) if forecast is not False else None
     entries = claim_order(entries)
     lookalikes: list[str] = []

@@ -123,3 +123,16 @@ def tower_check(partition, meas) -> TowerCheck | None:
                          "implied": share_i, "measured": share_m, "closed": float(closed),
                          "agrees": bool(lo <= share_i <= hi)}
     return out
+
+
+def fit_tower(fit) -> dict | None:
+    """:func:`tower_check` of a MAP refit (:class:`~.fitting.Fit`) of a model with an energy
+    balance, as a dict (:meth:`TowerCheck.to_dict`); None without a tower."""
+    from ..physics.catalogue.energy import energy_partition
+
+    pb = fit.problem
+    if not tower_fluxes(pb.meas):
+        return None
+    v = {**pb.space.value_dict(), **fit.values()}
+    tc = tower_check(energy_partition(pb.model, {k: np.array([x]) for k, x in v.items()}), pb.meas)
+    return None if tc is None else {**tc.to_dict(), "text": tc.text()}

@@ -149,6 +149,21 @@ def energy_sentence(entries, base, fbase) -> str:
     e = next((x for x in entries if x.name == ENERGY), None)
     if e is None:
         return ""
+    return _energy_forecast(e, base, fbase) + _tower_sentence(e.tower)
+
+
+def _tower_sentence(tower: dict | None) -> str:
+    """The energy balance's implied H and LE against the record's flux tower ('' without)."""
+    if not tower:
+        return ""
+    parts = [f"{k}/Rn {v['implied']:.2f} against {v['measured']:.2f}-{v['closed']:.2f}"
+             for k, v in tower["fluxes"].items()]
+    return (f" Its midday partition {'agrees with' if tower['agrees'] else 'DISAGREES with'} the "
+            f"flux tower's, which the fit did not see ({'; '.join(parts)}, the tower's raw to "
+            "its closed share).")
+
+
+def _energy_forecast(e, base, fbase) -> str:
     txt = (f" The surface energy balance ({ENERGY}: {', '.join(e.values)} in place of the "
            f"free h(t)) was tried: in sample the MAP RMSE {rmse_change(base.rmse, e.rmse)}")
     if e.forecast_gain is None or fbase is None:

@@ -104,3 +104,17 @@ def test_the_energy_check_reads_the_tower(tmp_path):
     grassy = EnergyBalance(np.zeros(3), 1.07, 4.8e-7, 12.8, None, {}, [], tower_share=0.18)
     grassy.verdict = _verdict(grassy)
     assert grassy.surface_wrong and "107 %" in grassy.verdict and "18 %" in grassy.verdict
+
+
+def test_the_ranking_scores_the_energy_balance_against_the_tower(tmp_path):
+    """diagnose tries the surface energy balance as a candidate: its implied partition is
+    checked against the tower the fit never saw, and the verdict says so."""
+    from pavement_mcmc.criticism.entries import ENERGY
+    from pavement_mcmc.criticism.ranking import rank_missing_effects
+
+    pb, _ = case_problem(_tower_twin(tmp_path, ("evapotranspiration",), 1))
+    rk = rank_missing_effects(pb, refit(pb).values(), candidates=[ENERGY])
+    (e,) = rk.entries
+    assert e.name == ENERGY and e.tower["agrees"] and set(e.tower["fluxes"]) == {"H", "LE"}
+    assert "agrees with the flux tower's" in rk.verdict, rk.verdict
+    assert rk.to_dict()["candidates"][0]["tower"]["agrees"]
