@@ -66,7 +66,7 @@ def one(pr, lap, seed: int, guard: bool, max_seconds: float | None = None) -> tu
     kept = st.read().chain[res.burn_in:].reshape(-1, len(pr.space.free))
     return ({"seed": seed, "guard": guard, "converged": res.converged, "steps": res.n_steps,
              "gradients": res.n_evals, "wall_s": wall, "max_rhat": float(res.rhat.max()),
-             "widened": int(np.sum(s.widen > 1.0))}, kept)
+             "widened": int(np.sum(s.rescale > 1.0))}, kept)
 
 
 def run(quick: bool = False, wide: bool = False) -> list[dict]:
