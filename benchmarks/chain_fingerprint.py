@@ -6,7 +6,8 @@ refactoring leaves every chain bit-identical.
     diff before.txt after.txt                              # no output: bit-identical
 
 Cases A and C run to their stopping rule (so the rule's decision is fingerprinted too), Case B
-and the grass window (skipped without ../shared) for a fixed number of steps. Each line is the
+and the grass window (skipped without ../shared) for a fixed number of steps; then Cases A
+(to its rule) and B (fixed steps) again under ``hmc`` instead of their shipped ``fast``. Each line is the
 case, the steps taken, whether it converged, and SHA-256 digests of the stored chain, the
 log-posterior and the sampler's saved state.
 """
@@ -24,11 +25,15 @@ from pavement_mcmc.runs import fit
 from pavement_mcmc.storage.hdf5 import read_run
 
 ROOT = Path(__file__).resolve().parents[1]
-CASES = [  # (case TOML, sampler overrides)
-    ("caseA", {}),
-    ("caseB", {"max_steps": 400, "ess_target": 1e9}),
-    ("caseC", {}),
-    ("grass", {"max_steps": 320, "ess_target": 1e9}),
+CASES = [  # (name, case TOML, sampler overrides)
+    ("caseA", "caseA", {}),
+    ("caseB", "caseB", {"max_steps": 400, "ess_target": 1e9}),
+    ("caseC", "caseC", {}),
+    ("grass", "grass", {"max_steps": 320, "ess_target": 1e9}),
+    # Cases A and B ship with ``fast``: under ``hmc`` too, for its preparation (Laplace metric,
+    # its guard) which the shipped samplers of A and B never reach
+    ("caseA_hmc", "caseA", {"kind": "hmc"}),
+    ("caseB_hmc", "caseB", {"kind": "hmc", "max_steps": 400, "ess_target": 1e9}),
 ]
 
 
@@ -57,10 +62,10 @@ def state_digest(state) -> str:
 
 
 def main(names: list[str]) -> int:
-    for name, samp in CASES:
+    for name, toml, samp in CASES:
         if names and name not in names:
             continue
-        case = ROOT / "runs" / f"{name}.toml"
+        case = ROOT / "runs" / f"{toml}.toml"
         if name == "grass" and not (ROOT.parent / "shared" / "data" / "goettingen_grass").exists():
             print(f"{name}: skipped (no ../shared/data/goettingen_grass)")
             continue

@@ -16,8 +16,9 @@ start from it, over-dispersed. Coordinates the mode pushes against a bound (nigh
 take the scale of the exponential the posterior has there, ``1/|d log p / d x|``, not the
 curvature's (:func:`.target.bounded_laplace_cov`; the Göttingen window adapted on a third of the
 gradients). A parameter along which the metric is far narrower than the posterior's curvature at
-the mode (which the windows below cannot widen in time) is widened to it (:mod:`.metric_guard`; d
-gradients; a sound Laplace covariance is left as it is). Dynamics in whitened coordinates ``u =
+the mode (which the windows below cannot widen in time) is widened to it, one far wider (which
+costs them ~10x the gradients) narrowed to it (:mod:`.metric_guard`; d gradients; a sound Laplace
+covariance is left as it is). Dynamics in whitened coordinates ``u =
 L^{-1} x`` (identity mass): leapfrog steps of size ``eps`` (jittered by +-20 % per chain and step,
 so no trajectory length resonates), ``n_leapfrog = ceil(trajectory_length / eps)`` of them. Bounds
 (h >= 0, kappa, C > 0) are hyperplanes in ``u``; a drift that reaches one is reflected specularly
@@ -58,7 +59,7 @@ from ..posterior.marginal import gmrf_of
 from .base import Block, Sampler, start_points
 from .coords import LOG, SQRT, Coords, log_metric
 from .hmc_options import AUTO, LEGACY, HMCOptions, resolve, restored
-from .metric_guard import probe_points, widened
+from .metric_guard import guarded
 from .reflect import reflect_drift
 from .rough import RoughScale, scale_moves
 from .strays import rejoin, strays
@@ -138,7 +139,7 @@ class HMCSampler(Sampler):
             [self.tlog == SQRT, self.tlog == LOG], [self.options.sqrt_shift, self.options.log_shift], 0.0)
         self._set_coords()
         self._set_metric(log_metric(cov, mode[i], self.tlog, self.shift))
-        if self.tlog.any() or np.any(self.widen > 1.0):  # around the mode in the working coordinates
+        if self.tlog.any() or np.any(self.rescale != 1.0):  # around the mode in the working coordinates
             self.theta = self._start_points(mode)
         elif self.marginal:
             self.theta = tg.start_points(self.rng, self.n_chains, cholesky_of(cov))
@@ -161,14 +162,12 @@ class HMCSampler(Sampler):
 
     def _bounded(self, mode: np.ndarray, cov: np.ndarray) -> np.ndarray:
         """The Laplace covariance, bound coordinates at their exponential scale (:func:`.target.
-        bounded_laplace_cov`), none far narrower than the curvature (:mod:`.metric_guard`)."""
+        bounded_laplace_cov`), none far narrower or wider than the posterior (:mod:`.metric_guard`)."""
         i = self.idx
-        T = probe_points(mode, i, np.sqrt(np.diag(cov)), self.lo, self.hi)
-        with np.errstate(all="ignore"):
-            f, g, _, _ = self._value_grad(T)
-        self.n_prep_evals += T.shape[0]
-        cov, self.widen = widened(cov, T[:, i], f, g, np.asarray(self.posterior.space.free)[i])
-        return bounded_laplace_cov(cov, mode[i], g[0], self.lo[i], self.hi[i])
+        cov, self.rescale, g0, n = guarded(cov, mode, i, self.lo, self.hi, lambda T: self._value_grad(T)[:2],
+                                           np.asarray(self.posterior.space.free)[i])
+        self.n_prep_evals += n
+        return bounded_laplace_cov(cov, mode[i], g0, self.lo[i], self.hi[i])
 
     def _start_points(self, mode: np.ndarray, inflate: float = 1.2) -> np.ndarray:
         """Draws of N(mode, inflate^2 metric) in the working coordinates, each standard normal

@@ -1,11 +1,13 @@
-"""hmc's guard on a start metric far too narrow (:mod:`pavement_mcmc.samplers.metric_guard`).
+"""hmc's guard on a start metric far too narrow or too wide (:mod:`pavement_mcmc.samplers.metric_guard`).
 
 A Laplace covariance scored with a parameter on its bound as outside gave κ an sd of 9e-8
 where the posterior's is ~1e-2, and hmc never recovered from that start (54 726 steps, 664 s,
 not converged): the metric windows widen a direction only by how far the chains diffuse in one
 window. Here a start metric with one parameter's sd scaled by 1e-5 (its correlations kept)
 must be widened back before sampling, converge within a budget the unguarded start never met,
-and give the normal start's posterior; a sound start is left exactly as it was.
+and give the normal start's posterior; a sound start is left exactly as it was. A start metric
+1e3 too wide in κ cost Case A ~10x the normal start's gradients (108 k against 11 k): it must be
+narrowed back (the tests at the end).
 """
 
 from __future__ import annotations
@@ -22,11 +24,12 @@ from pavement_mcmc.diagnostics import ess
 from pavement_mcmc.posterior import find_map
 from pavement_mcmc.runs import run_sampler
 from pavement_mcmc.samplers import get_sampler
-from pavement_mcmc.samplers.metric_guard import probe_points
+from pavement_mcmc.samplers.metric_guard import probe_points, rescaled
 from pavement_mcmc.samplers.target import bounded_laplace_cov, cholesky_of
 from pavement_mcmc.storage import MemoryStore
 
 SHRINK = 1e-5
+WIDE = 1e3
 
 
 def _shrunk(lap, i: int, factor: float = SHRINK):
@@ -69,25 +72,28 @@ def test_a_metric_shrunk_along_one_parameter_is_widened_back_with_a_warning():
     with pytest.warns(UserWarning, match=r"'p0': 'x1e\+05'"):
         s.prepare(laplace=_shrunk(lap, 0))
     np.testing.assert_allclose(s.M, post.cov, rtol=1e-6, atol=1e-9 * post.cov.max())
-    np.testing.assert_allclose(s.widen, [1e5, 1.0, 1.0], rtol=1e-6)
+    np.testing.assert_allclose(s.rescale, [1e5, 1.0, 1.0], rtol=1e-6)
     sd = np.sqrt(np.diag(post.cov))
     spread = s.theta.std(0) / sd  # the start points are drawn from the widened metric
     assert np.all((spread > 0.3) & (spread < 3.0)), spread  # 16 chains (normal start: 0.5-2.2)
 
 
-@pytest.mark.parametrize("i", [0, 1])
-def test_a_shrunk_metric_at_a_mode_on_a_bound_is_widened_back(i):
+@pytest.mark.parametrize("i, factor", [(0, SHRINK), (1, SHRINK), (0, 1e3), (1, 1e3)])
+def test_a_shrunk_metric_at_a_mode_on_a_bound_is_widened_back(i, factor):
     """The Gaussian cut at p0 >= a (its mode on the bound, p1 correlated with p0 at 0.99): with
     the start covariance's p0 (on the bound) or p1 (free) sd scaled by 1e-5, the metric's sds
     come back within 25 % of the normal start's (p0: the squared slope at the bound sets its
-    scale, as the normal start's exponential one)."""
+    scale, as the normal start's exponential one). Scaled by 1e3 instead, either is narrowed
+    back (p0 to its curvature's scale, then capped by :func:`bounded_laplace_cov` as the
+    normal start's: a first version left p0 to that cap alone, and p1 came out at 0.39 of the
+    normal start's sd, its regression on p0 cut by the 1e3)."""
     post, _, mode = _cut_gaussian()
     lap = dataclasses.replace(find_map(post), theta=mode, cov=post.cov.copy())
     normal = get_sampler("hmc", post, n_chains=16, seed=1)
     normal.prepare(laplace=lap)
     s = get_sampler("hmc", post, n_chains=16, seed=1)
     with pytest.warns(UserWarning, match=f"'p{i}'"):
-        s.prepare(laplace=_shrunk(lap, i))
+        s.prepare(laplace=_shrunk(lap, i, factor))
     np.testing.assert_allclose(np.sqrt(np.diag(s.M)), np.sqrt(np.diag(normal.M)), rtol=0.25)
 
 
@@ -102,7 +108,7 @@ def test_a_sound_start_metric_is_left_exactly_as_it_was():
         with warnings.catch_warnings():
             warnings.simplefilter("error")
             s.prepare(laplace=lap)
-        assert np.all(s.widen == 1.0)
+        assert np.all(s.rescale == 1.0)
         g = p.loglik_and_grad(lap.theta[None])[1][0]
         B = bounded_laplace_cov(lap.cov, lap.theta, g, *p.space.bounds())
         np.testing.assert_array_equal(s.L, cholesky_of(0.5 * (B + B.T)))
@@ -161,15 +167,21 @@ def test_the_probe_points_stay_inside_the_bounds():
 
     pr = build_problem(load_case(REPO / "runs" / "caseA.toml"))
     lap = find_map(pr.posterior)
+    k = pr.space.free.index("kappa")
+    normal = get_sampler("hmc", pr.posterior, n_chains=16, seed=1)
+    normal.prepare(laplace=lap)
     s = get_sampler("hmc", pr.posterior, n_chains=16, seed=1)
-    s.prepare(laplace=_shrunk(lap, pr.space.free.index("kappa"), 1e5))
-    assert np.all(s.widen == 1.0)  # a metric too wide is left to the windows
+    with pytest.warns(UserWarning, match="'kappa': 'x1e-05'"):  # narrowed back
+        s.prepare(laplace=_shrunk(lap, k, 1e5))
+    np.testing.assert_allclose(np.sqrt(s.M[k, k] / normal.M[k, k]), 1.0, rtol=0.05)
 
 
-def test_the_gamma_marginal_start_metric_is_guarded_too(monkeypatch):
+@pytest.mark.parametrize("factor", [SHRINK, WIDE])
+def test_the_gamma_marginal_start_metric_is_guarded_too(monkeypatch, factor):
     """The GMRF toy (Case C's form: gamma integrated out, h's metric from the marginal MAP's
-    Laplace covariance): with h_3's row and column of that covariance scaled by 1e-5, the metric
-    is widened back to within 25 % of the normal start's sds, and hmc meets the stopping rule
+    Laplace covariance, whose heavy-tailed marginal prior of h makes the posterior non-Gaussian):
+    with h_3's row and column of that covariance scaled by 1e-5 or 1e3, the metric is widened
+    or narrowed back to within 25 % of the normal start's sds, and hmc meets the stopping rule
     within 2,000 steps with the normal start's posterior."""
     from test_samplers import ToyGMRF
 
@@ -181,7 +193,7 @@ def test_the_gamma_marginal_start_metric_is_guarded_too(monkeypatch):
         def __init__(self, *args, **kw):
             super().__init__(*args, **kw)
             f = np.ones(self.idx.size)
-            f[3] = SHRINK
+            f[3] = factor
             self.mmap = dataclasses.replace(self.mmap, cov=self.mmap.cov * np.outer(f, f))
 
     def run(seed):
@@ -197,4 +209,91 @@ def test_the_gamma_marginal_start_metric_is_guarded_too(monkeypatch):
         s, res, kept = run(1)
     np.testing.assert_allclose(np.sqrt(np.diag(s.M)), np.sqrt(np.diag(normal.M)), rtol=0.25)
     assert res0.converged and res.converged, res.reason
+    _agree(kept, kept0)
+
+
+def _gaussian_probe(S: np.ndarray, cov: np.ndarray, mode: np.ndarray, lo=None, hi=None):
+    """The guard's probe rows for N(mode, S) from the metric ``cov``, the log-density there and
+    its gradient, -S^-1 (x - mode), written out here (not the posterior's code)."""
+    d = mode.size
+    lo = np.full(d, -np.inf) if lo is None else lo
+    hi = np.full(d, np.inf) if hi is None else hi
+    X = probe_points(mode, np.arange(d), np.sqrt(np.diag(cov)), lo, hi)
+    P = np.linalg.inv(S)
+    G = -(X - mode) @ P
+    return X, 0.5 * np.sum((X - mode) * G, axis=1), G
+
+
+def test_a_metric_too_wide_along_one_parameter_is_narrowed_to_the_posteriors_conditional_sd():
+    """Gaussian N(m, S), p0 correlated with p1 (-0.33 in LinearGaussian(2)): the metric with
+    p0's sd 100x S's is S again (the conditional sds agree: (Sigma^-1)_00 = (S^-1)_00, the
+    correlations kept); one 5x too wide or too narrow is returned as it is (within RATIO).
+    Before: ``widened`` left the 100x (factor 1)."""
+    post = LinearGaussian(seed=2, d=3)
+    S, m = post.cov, post.mean
+    for fac, expect in ((100.0, 0.01), (5.0, 1.0), (0.2, 1.0)):
+        f = np.array([fac, 1.0, 1.0])
+        cov = S * np.outer(f, f)
+        X, lp, G = _gaussian_probe(S, cov, m)
+        out, factor = rescaled(cov, X, lp, G)
+        np.testing.assert_allclose(factor, [expect, 1.0, 1.0], rtol=1e-6)
+        if expect == 1.0:
+            assert out is cov
+            continue
+        np.testing.assert_allclose(out, S, rtol=1e-6)
+        np.testing.assert_allclose(np.linalg.inv(out)[0, 0], np.linalg.inv(S)[0, 0], rtol=1e-6)
+        sd, sd0 = np.sqrt(np.diag(out)), np.sqrt(np.diag(cov))
+        np.testing.assert_allclose(out / np.outer(sd, sd), cov / np.outer(sd0, sd0), atol=1e-12)
+
+
+def test_a_parameter_pushed_against_its_bound_is_narrowed_by_its_curvature_alone():
+    """p0's mode on its lower bound, the data pushing it below (slope^2 900x the curvature,
+    the grass window's night h have up to 140x): a metric at the curvature's scale is left as
+    it is (the slope's scale is :func:`bounded_laplace_cov`'s cap, applied next; compared with
+    max(curvature, slope^2) it would be narrowed 30x), and one 1e3 too wide is narrowed to the
+    curvature's scale, not to the slope's."""
+    post = LinearGaussian(seed=2, d=3)
+    S, m = post.cov, post.mean
+    lo = np.array([m[0], -np.inf, -np.inf])
+    for fac, expect in ((1.0, 1.0), (WIDE, 1.0 / WIDE)):
+        f = np.array([fac, 1.0, 1.0])
+        cov = S * np.outer(f, f)
+        X, lp, G = _gaussian_probe(S, cov, m, lo)
+        G[:, 0] -= 30.0 * np.sqrt(np.linalg.inv(S)[0, 0])  # a constant slope: same curvature
+        out, factor = rescaled(cov, X, lp, G)
+        np.testing.assert_allclose(factor, [expect, 1.0, 1.0], rtol=1e-6)
+
+
+def test_a_widened_metric_start_on_a_gaussian_is_narrowed_with_a_warning():
+    """hmc's preparation on the Gaussian from p0's sd 1e3 too wide: a warning names p0 and
+    the factor, the metric is the posterior covariance, the start points spread as the normal
+    start's."""
+    post = LinearGaussian(seed=2, d=3)
+    lap = find_map(post)
+    s = get_sampler("hmc", post, n_chains=16, seed=1)
+    with pytest.warns(UserWarning, match=r"'p0': 'x0.001'.*narrowed"):
+        s.prepare(laplace=_shrunk(lap, 0, WIDE))
+    np.testing.assert_allclose(s.M, post.cov, rtol=1e-6, atol=1e-9 * post.cov.max())
+    spread = s.theta.std(0) / np.sqrt(np.diag(post.cov))
+    assert np.all((spread > 0.3) & (spread < 3.0)), spread
+
+
+def test_case_a_from_a_kappa_sd_1e3_too_wide_converges_on_the_normal_starts_gradients():
+    """Case A (paper priors) under hmc, seed 1: from the Laplace covariance with κ's sd 1e3
+    times too wide (correlations kept) the stopping rule holds on fewer than 25 k gradients
+    (18,776 in 580 steps; the normal start: 10,886 in 330), with the normal start's means and
+    sds. Unguarded it stopped at 330 steps too, but on 108,022 gradients (20 leapfrog steps a
+    trajectory instead of 2 until the windows shrank the metric)."""
+    from conftest import REPO
+
+    from pavement_mcmc.data import load_case
+    from pavement_mcmc.posterior import build_problem
+
+    pr = build_problem(load_case(REPO / "runs" / "caseA.toml"))
+    lap = find_map(pr.posterior)
+    res, kept = _run(pr.posterior, _shrunk(lap, pr.space.free.index("kappa"), WIDE), 1, max_steps=2000)
+    assert res.converged, res.reason
+    assert res.n_evals < 25_000, res.n_evals
+    res0, kept0 = _run(pr.posterior, lap, 1, max_steps=2000)
+    assert res0.converged
     _agree(kept, kept0)
