@@ -16,7 +16,7 @@ from .effects import EFFECTS, REFERENCE_KEYS
 from .simulate import SyntheticSpec, Truth, simulate
 
 # decimals of each column in the CSV (those of the shipped reference case)
-_DECIMALS = {"T_air": 2, "q_net": 1, "wind": 2, "rain": 1}
+_DECIMALS = {"T_air": 2, "q_net": 1, "wind": 2, "rain": 1, "RH": 1}
 _T_COLUMN = re.compile(r"^T_(\d+(?:\.\d+)?)cm$")
 
 

@@ -53,6 +53,26 @@ def priestley_taylor_factor(T_air: np.ndarray, alpha: float) -> np.ndarray:
     return alpha * s / (s + PSYCHROMETRIC)
 
 
+def penman_monteith_terms(T_air: np.ndarray, h: np.ndarray, vapour_kPa: float,
+                          r_s: float) -> tuple[np.ndarray, np.ndarray]:
+    """``(factor, vapour flux)`` of a Penman-Monteith latent heat
+    ``LE = factor x A + vapour flux``, A the available energy (W m-2): with D = max(e_s(T_air)
+    - vapour_kPa, 0) the vapour pressure deficit (kPa), h the convective transfer coefficient
+    (W m-2 K-1, rho c_p / r_a), r_s the surface resistance (s m-1) and rho c_p = 1200 J m-3 K-1,
+    factor = s / den and vapour flux = h D / den, den = s + gamma (1 + r_s h / rho c_p)."""
+    T = np.asarray(T_air, float)
+    e_s = 0.6108 * np.exp(17.27 * T / (T + 237.3))
+    s = saturation_slope(T)
+    den = s + PSYCHROMETRIC * (1.0 + r_s * np.asarray(h, float) / 1200.0)
+    return s / den, np.asarray(h, float) * np.maximum(e_s - vapour_kPa, 0.0) / den
+
+
+def relative_humidity(T_air: np.ndarray, vapour_kPa: float) -> np.ndarray:
+    """RH (%) of air at ``T_air`` (degC) holding ``vapour_kPa`` of water vapour, at most 100."""
+    T = np.asarray(T_air, float)
+    return np.minimum(100.0 * vapour_kPa / (0.6108 * np.exp(17.27 * T / (T + 237.3))), 100.0)
+
+
 SHADE_EDGE_MINUTES = 10.0
 """Time a shadow edge takes to cross the plot: the shade ramps in and out linearly over this
 time, centred on the given clock hours (a step would make a row at the edge sample the

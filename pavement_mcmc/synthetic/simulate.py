@@ -19,7 +19,7 @@ from .outputs import (
     sensor_temperatures,
     tower_columns,
 )
-from .processes import rain_per_row
+from .processes import penman_monteith_terms, rain_per_row, relative_humidity
 from .weather import make_weather
 
 PAPER_H_KNOTS = (16.67, 6.43, 10.29, 14.33, 12.92)
@@ -79,6 +79,12 @@ class SyntheticSpec:
     et_available : available energy of the ``evapotranspiration`` effect: "net_minus_ground"
         (R_n - G, Priestley-Taylor's) or "net" (R_n alone, the form of the inversion's
         ``energy_balance`` entry).
+    vapour_kPa : water vapour pressure of the air (kPa; 0: none): an ``RH`` column (%) from it
+        and the air temperature.
+    surface_resistance : with ``vapour_kPa``, latent heat in the Penman-Monteith form leaves the
+        surface: LE = [s A + h D] / [s + gamma (1 + r_s h / rho c_p)], r_s this (s m-1), h the
+        twin's convective h(t), D the vapour pressure deficit, A the ``et_available`` energy
+        (not with the ``evapotranspiration`` effect; ``processes.penman_monteith_terms``).
     tower : closure of a flux tower over the twin (0: none): with 0.85, say, ``H`` and ``LE``
         columns (W m-2, leaving the surface) read 0.85 x the true sensible heat h (T_s - T_air)
         and latent heat (evapotranspiration and evaporation), each x (1 + 0.1 N1) + 5 N2 W m-2
@@ -115,6 +121,8 @@ class SyntheticSpec:
     plate_abs_noise: float = 2.0
     et_available: str = "net_minus_ground"
     tower: float = 0.0
+    vapour_kPa: float = 0.0
+    surface_resistance: float | None = None
 
 
 @dataclass(frozen=True)
@@ -212,6 +220,11 @@ def _check(spec: SyntheticSpec) -> tuple[np.ndarray, float]:
         raise ValueError(f"flux_depths_cm={spec.flux_depths_cm} holds the same depth twice")
     if spec.et_available not in ("net_minus_ground", "net"):
         raise ValueError(f"et_available={spec.et_available!r}; valid: 'net_minus_ground', 'net'")
+    if spec.surface_resistance is not None and (
+            spec.vapour_kPa <= 0 or spec.surface_resistance < 0
+            or "evapotranspiration" in (spec.effects or {})):
+        raise ValueError("surface_resistance (Penman-Monteith latent heat) needs vapour_kPa > 0, "
+                         "a resistance >= 0 and no 'evapotranspiration' effect")
     if not (spec.plate_factor > 0 and spec.plate_rel_noise >= 0 and spec.plate_abs_noise >= 0):
         raise ValueError("plate_factor must be positive, plate_rel_noise and plate_abs_noise >= 0")
     return depths, bottom
@@ -255,6 +268,10 @@ def simulate(spec: SyntheticSpec) -> tuple[dict[str, np.ndarray], Truth]:
 
     fo = forcing_at_levels(spec, effects, weather, clock, start_hour)
     q_evap_rows, q_sink, pt_factor = ground_sinks(effects, t_rows, rain, clock.t_levels, fo.T_air)
+    if spec.surface_resistance is not None:  # Penman-Monteith: a factor on A, a vapour flux
+        pt_factor, q_vapour = penman_monteith_terms(fo.T_air, fo.h, spec.vapour_kPa,
+                                                    spec.surface_resistance)
+        q_sink = q_sink + q_vapour
     ground, run = _march_ground(spec, effects, depths, bottom, dz, weather, clock, fo, q_sink,
                                 pt_factor)
     profiles = run.profiles[clock.n_spin:][keep]
@@ -279,6 +296,8 @@ def simulate(spec: SyntheticSpec) -> tuple[dict[str, np.ndarray], Truth]:
         "wind": np.round(fo.wind[lv], 2),
         "rain": rain,
     }
+    if spec.vapour_kPa > 0:
+        columns["RH"] = relative_humidity(fo.T_air[lv], spec.vapour_kPa)
     for name, values in zip(temperature_columns(spec), recorded.T, strict=True):
         columns[name] = values
     flux = conductive_flux(ground.column, profiles, ground.plate_z, ground.beta)
@@ -286,7 +305,7 @@ def simulate(spec: SyntheticSpec) -> tuple[dict[str, np.ndarray], Truth]:
     columns.update(plates)
     if spec.tower > 0:  # its own random stream (the 5th child): the others stay unchanged
         H = fo.h[lv] * (profiles[:, 0] - fo.T_air[lv])
-        columns.update(tower_columns(spec.tower, H, run.latent[lv] + q_evap_rows,
+        columns.update(tower_columns(spec.tower, H, run.latent[lv] + q_sink[lv],
                                      np.random.default_rng(seq.spawn(1)[0])))
 
     truth = Truth(

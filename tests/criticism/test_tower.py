@@ -118,3 +118,26 @@ def test_the_ranking_scores_the_energy_balance_against_the_tower(tmp_path):
     assert e.name == ENERGY and e.tower["agrees"] and set(e.tower["fluxes"]) == {"H", "LE"}
     assert "agrees with the flux tower's" in rk.verdict, rk.verdict
     assert rk.to_dict()["candidates"][0]["tower"]["agrees"]
+
+
+@pytest.mark.slow
+def test_rates_on_fresh_seeds(tmp_path):
+    """``make validate``: seeds 20-29 (the recorded rates used 10-19, benchmarks/tower_rates.py):
+    the law that made a twin agrees with its tower, the law without latent heat disagrees on
+    LE, and no base fit (free h) raises the energy check's tower alarm."""
+    agree, refuted, alarms, n = 0, 0, 0, 0
+    for seed in range(20, 30):
+        for effects in (("evapotranspiration",), ("wind_convection",)):
+            case = _tower_twin(tmp_path, effects, seed)
+            pb, part = _partition_at_map(case)
+            agree += tower_check(part, pb.meas).agrees
+            if effects == ("evapotranspiration",):
+                dry_pb, dry = _partition_at_map(case, NO_LE)
+                refuted += not tower_check(dry, dry_pb.meas).fluxes["LE"]["agrees"]
+            base, _ = case_problem(case)
+            eb = energy_balance(base, refit(base).values(), top_fit=False)
+            alarms += eb.midday_share > eb.tower_share + TOL
+            n += 1
+    print(f"the law agrees {agree} of {n}; LE at 0 refuted {refuted} of 10; tower alarms on base "
+          f"fits {alarms} of {n}")
+    assert agree >= n - 1 and refuted == 10 and alarms == 0

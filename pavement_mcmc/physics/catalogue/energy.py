@@ -28,9 +28,10 @@ interval is gone), so the model can predict a day it has not seen from its forci
   ``s`` is the slope of the saturation vapour pressure (Tetens), ``\gamma = 0.066`` kPa K-1.
   Over a dry soil the data may ask for no latent heat at all (the desert record's 72 h window
   runs the coefficient to its bound 0): fix it there (``[parameters.eb_alpha] value = 0.0,
-  vary = false``) instead of leaving it at the bound. Relative humidity is not in the CSV
-  contract, so the evaporative demand is not used: a
-  drying surface shows as a falling ``eb_alpha`` from day to day.
+  vary = false``) instead of leaving it at the bound. This form does not use the air's
+  humidity: a drying surface shows as a falling ``eb_alpha`` from day to day. Where the record
+  has the relative humidity, ``energy_balance_pm`` (:mod:`.penman`) puts the evaporative
+  demand in (Penman–Monteith, one surface resistance a day).
 
 A grass or thatch layer is added by listing ``canopy`` (a skin node with heat capacity above
 the soil, which the balance acts on) or ``surface_layer`` (a pure resistance: it then damps

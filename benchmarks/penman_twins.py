@@ -1,0 +1,60 @@
+"""The Penman-Monteith energy balance (physics/catalogue/penman.py) on twins whose latent heat
+follows Penman-Monteith on the simulator's own h(t) and a fixed vapour pressure
+(``SyntheticSpec.surface_resistance``; h from the wind, ``wind_convection``; 72 h, 30 min;
+MAP fits): the recovered surface resistance, kappa and C against the truth, and the
+Priestley-Taylor law's on the same twins, for resistances and vapour pressures given on the
+command line (default: 50, 150, 400 s m-1 x 0.8, 1.4 kPa, seeds 1-3).
+
+    PYTHONPATH=. python benchmarks/penman_twins.py [first_seed n]
+"""
+
+from __future__ import annotations
+
+import sys
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+from pavement_mcmc.criticism import refit
+from pavement_mcmc.criticism.point import case_problem
+from pavement_mcmc.synthetic.corpus import forecast_twins, write_twin
+
+
+def main(first: int, n: int) -> None:
+    tmp = Path(tempfile.mkdtemp())
+    rows = []
+    for r_s in (50.0, 150.0, 400.0):
+        for vap in (0.8, 1.4):
+            for seed in range(first, first + n):
+                spec = {"vapour_kPa": vap, "surface_resistance": r_s, "et_available": "net"}
+                twin = forecast_twins(("wind_convection",), (seed,), hours=72.0, spec=spec)[0]
+                case = write_twin(twin, tmp / twin.name)
+                out = {}
+                for law in ("energy_balance_pm_window", "energy_balance_window"):
+                    pb, _ = case_problem(f"{case}+{law}")
+                    fit = refit(pb)
+                    v = fit.values()
+                    out[law] = (fit.rmse, v["kappa"] / twin.spec.kappa - 1, v["C"] / twin.spec.C - 1,
+                                v.get("eb_rs", np.nan) / r_s - 1)
+                pm, pt = out["energy_balance_pm_window"], out["energy_balance_window"]
+                rows.append((pm, pt))
+                print(f"r_s {r_s:g} s/m, e_a {vap:g} kPa, seed {seed}: PM RMSE {pm[0]:.3f}, "
+                      f"r_s {100 * pm[3]:+.0f} %, kappa {100 * pm[1]:+.0f} %, C {100 * pm[2]:+.0f} % | "
+                      f"PT RMSE {pt[0]:.3f}, kappa {100 * pt[1]:+.0f} %, C {100 * pt[2]:+.0f} %",
+                      flush=True)
+    pm = np.abs(np.array([r[0] for r in rows]))
+    pt = np.array([r[1] for r in rows])
+
+    def med_max(a):
+        return f"{100 * np.median(a):.0f} % (max {100 * np.max(a):.0f} %)"
+
+    ratio = pt[:, 0] / pm[:, 0]
+    print(f"{len(rows)} twins: PM |r_s error| {med_max(pm[:, 3])}, |kappa| {med_max(pm[:, 1])}, "
+          f"|C| {med_max(pm[:, 2])}; PT |kappa| {med_max(np.abs(pt[:, 1]))}, |C| "
+          f"{med_max(np.abs(pt[:, 2]))}; PT RMSE / PM RMSE median {np.median(ratio):.2f} "
+          f"(min {np.min(ratio):.2f})")
+
+if __name__ == "__main__":
+    args = [int(a) for a in sys.argv[1:3]]
+    main(*(args or [1, 3]))
