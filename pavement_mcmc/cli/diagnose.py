@@ -12,7 +12,7 @@ import sys
 import textwrap
 from pathlib import Path
 
-from ..criticism.entries import DATA_THRESHOLD, ENERGY, FORECAST_THRESHOLD, LOSO_NONE
+from ..criticism.entries import DATA_THRESHOLD, ENERGY_LAWS, FORECAST_THRESHOLD, LOSO_NONE
 from ..criticism.ranking import finer_h_spec
 from ..criticism.verdict import headline
 from ..physics.hbasis import FINER_H
@@ -182,12 +182,12 @@ def next_step(rk) -> list[str]:
     elif rk.unexplained is not None:
         lines.append("Next: write the extension (template above) in a module of your own, then "
                      "pavement-mcmc diagnose <case.toml>+mymodule:MyEffect to score it")
-    tried_law = any(e.name == ENERGY for e in rk.entries)  # the energy check named the surface
-    if rk.best is None and (rk.points_at or tried_law) and not rk.base.problem.model.replaces_h:
+    law = next((e.name for e in rk.entries if e.name in ENERGY_LAWS), None)  # the energy check
+    if rk.best is None and (rk.points_at or law) and not rk.base.problem.model.replaces_h:
         lines.append("Next: one held-out day is a weak test on a field record; over a longer "
                      "record test a surface energy balance day after day: pavement-mcmc rolling "
-                     "<case.toml> <case.toml>+energy_balance_window (or a case of your own with "
-                     "the balance)")
+                     f"<case.toml> <case.toml>+{law or ENERGY_LAWS[0]} (or a case of your own "
+                     "with the balance)")
     return lines
 
 

@@ -117,6 +117,16 @@ GROUND_FORECAST = True
 #: Priestley-Taylor coefficient for the window, so its forecast needs no rule for a day it
 #: has not seen
 ENERGY = "energy_balance_window"
+#: ... and in its Penman-Monteith form (one surface resistance) where the record has RH
+ENERGY_PM = "energy_balance_pm_window"
+ENERGY_LAWS = (ENERGY, ENERGY_PM)
+
+
+def energy_law(meas) -> str:
+    """The surface energy balance the criticism tries on ``meas``: :data:`ENERGY_PM` where the
+    record has the relative humidity without gaps, else :data:`ENERGY`."""
+    rh = getattr(meas, "extras", {}).get("RH")
+    return ENERGY_PM if rh is not None and bool(np.all(np.isfinite(rh))) else ENERGY
 
 #: per-sensor nuisances: claimable only if their offsets are not one coherent depth profile
 PER_SENSOR = ("sensor_bias", "sensor_depth")

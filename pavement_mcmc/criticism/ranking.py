@@ -58,7 +58,7 @@ from ..physics.materials import check_values, declared_material
 from .candidates import finer_h_spec, fit_extension, h_spec_of, h_start, variant
 from .entries import (
     DATA_THRESHOLD,
-    ENERGY,
+    ENERGY_LAWS,
     FLOOR,
     GROUND_FORECAST,
     LOSO_NONE,
@@ -71,6 +71,7 @@ from .entries import (
     excess_share,
     score,
 )
+from .entries import energy_law as law_of
 from .fitting import Fit, refit
 from .forecast import forecast as forecast_skill
 from .forecast import forecast_gain, forecast_share, plugin_gain
@@ -121,8 +122,9 @@ def _points_at(entries: list[Entry], energy, threshold: float) -> dict | None:
 
 
 def energy_candidate(problem, energy, flag: bool | None) -> bool:
-    """Whether the ranking tries :data:`ENERGY`: a law for the whole surface balance (H with the
-    wind, LE by Priestley-Taylor) in place of the free h(t). Not a catalogue candidate (it nests
+    """Whether the ranking tries :data:`ENERGY` (Penman-Monteith's where the record has RH): a
+    law for the whole surface balance (H with the wind, LE by Priestley-Taylor or
+    Penman-Monteith) in place of the free h(t). Not a catalogue candidate (it nests
     wind_convection and evapotranspiration and would shadow them; the forecast rule's margin was
     calibrated without it), so by default (``flag`` None) only where the energy check
     (:mod:`.energy`) says the surface boundary is wrong -- an impossible kappa or C, a plate
@@ -257,7 +259,7 @@ def rank_missing_effects(
     present = {e.name for e in problem.model.extensions}
     names = [n for n in (candidates or [FINER_H, *candidate_names()]) if n not in present]
     if candidates is None and energy_candidate(problem, energy, energy_law):
-        names.append(ENERGY)
+        names.append(law_of(problem.meas))  # Penman-Monteith where the record has RH
     entries: list[Entry] = []
     skipped: dict[str, str] = {}
     h_spec = h_spec_of(problem)
@@ -297,7 +299,7 @@ def rank_missing_effects(
         entries.append(_entry(ext.name, desc, base, fit, ext, patterns, impossible, declared))
     for e in entries:
         e.threshold = threshold
-        e.tower = fit_tower(e.fit) if e.name == ENERGY else None
+        e.tower = fit_tower(e.fit) if e.name in ENERGY_LAWS else None
     fbase = _forecasts(base, entries, forecast) if forecast is not False else None
     entries = claim_order(entries)
     lookalikes: list[str] = []

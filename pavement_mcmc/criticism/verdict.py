@@ -7,7 +7,7 @@ refit's (both MAP fits of the same data); a candidate that helps without explain
 
 from __future__ import annotations
 
-from .entries import DATA_THRESHOLD, ENERGY, FORECAST_THRESHOLD, LOSO_NONE
+from .entries import DATA_THRESHOLD, ENERGY_LAWS, FORECAST_THRESHOLD, LOSO_NONE
 from .forecast import ratio_for_gain
 from .residuals import ResidualReport, inflation, noise_like
 
@@ -146,7 +146,7 @@ def _reach(fbase) -> str:
 def energy_sentence(entries, base, fbase) -> str:
     """How the surface energy balance (:data:`~.entries.ENERGY`) did, with its figures, when the
     ranking tried it ('' otherwise): named by its forecast or not, and why not."""
-    e = next((x for x in entries if x.name == ENERGY), None)
+    e = next((x for x in entries if x.name in ENERGY_LAWS), None)
     if e is None:
         return ""
     return _energy_forecast(e, base, fbase) + _tower_sentence(e.tower)
@@ -164,7 +164,7 @@ def _tower_sentence(tower: dict | None) -> str:
 
 
 def _energy_forecast(e, base, fbase) -> str:
-    txt = (f" The surface energy balance ({ENERGY}: {', '.join(e.values)} in place of the "
+    txt = (f" The surface energy balance ({e.name}: {', '.join(e.values)} in place of the "
            f"free h(t)) was tried: in sample the MAP RMSE {rmse_change(base.rmse, e.rmse)}")
     if e.forecast_gain is None or fbase is None:
         return txt + "; no forecast (the window is too short to hold a part out)."

@@ -141,3 +141,21 @@ def test_rates_on_fresh_seeds(tmp_path):
     print(f"the law agrees {agree} of {n}; LE at 0 refuted {refuted} of 10; tower alarms on base "
           f"fits {alarms} of {n}")
     assert agree >= n - 1 and refuted == 10 and alarms == 0
+
+
+def test_the_ranking_tries_penman_monteith_where_the_record_has_rh(tmp_path):
+    """With RH the energy candidate is the Penman-Monteith law (the air's dryness in LE), else
+    Priestley-Taylor; the verdict names the one it tried."""
+    from pavement_mcmc.criticism.entries import ENERGY, ENERGY_PM, energy_law
+    from pavement_mcmc.criticism.ranking import rank_missing_effects
+
+    wet = forecast_twins(("wind_convection",), (1,), hours=72.0,
+                         spec={"tower": 0.85, "et_available": "net", "vapour_kPa": 1.0,
+                               "surface_resistance": 150.0})[0]
+    pb, _ = case_problem(write_twin(wet, tmp_path / wet.name))
+    assert energy_law(pb.meas) == ENERGY_PM
+    rk = rank_missing_effects(pb, refit(pb).values(), candidates=[energy_law(pb.meas)])
+    assert f"({ENERGY_PM}: eb_h0, eb_h1, eb_rs in place" in rk.verdict, rk.verdict
+    assert rk.entries[0].tower["agrees"], rk.entries[0].tower["text"]
+    dry, _ = case_problem(_tower_twin(tmp_path, (), 3))
+    assert energy_law(dry.meas) == ENERGY
