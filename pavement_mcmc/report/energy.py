@@ -8,6 +8,7 @@ import html
 
 from ..criticism.tower import tower_check, tower_fluxes
 from ..physics.catalogue.energy import MIDDAY_NAMES, EnergyBalance, energy_partition
+from ..physics.catalogue.penman import EnergyBalancePM
 
 TITLE = "Surface energy balance (H, LE, G)"
 
@@ -22,9 +23,13 @@ def energy_section(problem, view, n_draws: int = 100):
     part = energy_partition(problem.model, problem.space.expand(view.draws(n_draws)))
     rows = "".join(f"<tr><td>{html.escape(MIDDAY_NAMES[k])}</td><td>{m:.2f}</td><td>{lo:.2f}</td>"
                    f"<td>{hi:.2f}</td></tr>" for k, (m, lo, hi) in part.summary().items())
+    law = next(e for e in problem.model.extensions if isinstance(e, EnergyBalance))
+    latent = ("Penman–Monteith: the air's vapour pressure deficit from the relative humidity "
+              "and a surface resistance" if isinstance(law, EnergyBalancePM) else
+              "Priestley–Taylor on the net radiation")
     frag = ("<p>The net radiation Rn (measured) split by the fitted laws into sensible heat H "
             "(bulk transfer with the wind, or the no-wind fallback), latent heat LE "
-            "(Priestley–Taylor, one coefficient per day) and the heat flux into the ground G = "
+            f"({latent}) and the heat flux into the ground G = "
             "Rn − H − LE (less what a shadow keeps off the spot, with <code>shading</code>). Midday: "
             "the rows where Rn exceeds half its maximum (ratios of sums). "
             "Over April grass LE/Rn is typically 0.5–0.8 and G/Rn 0.05–0.2; over dry bare soil "

@@ -91,3 +91,22 @@ def test_one_resistance_a_day_is_a_group():
     Meas.extras = {"RH": np.r_[np.nan, np.full(Meas.t.size - 1, 50.0)]}
     with pytest.raises(ValueError, match="without gaps"):
         ext.parameters(Meas)
+
+
+def test_the_report_names_the_latent_heat_law(tmp_path):
+    from pavement_mcmc.report.energy import energy_section
+
+    twin = forecast_twins(("wind_convection",), (2,), hours=48.0, spec=PM)[0]
+    case = write_twin(twin, tmp_path / twin.name)
+    for law, words in (("energy_balance_pm_window", "Penman–Monteith"),
+                       ("energy_balance_window", "Priestley–Taylor")):
+        pb, _ = case_problem(f"{case}+{law}")
+        class View:
+            def __init__(self, th):
+                self.th = th
+
+            def draws(self, n):
+                return self.th[:n]
+
+        frag, _ = energy_section(pb, View(pb.space.initial()[None, :].repeat(2, axis=0)), n_draws=2)
+        assert words in frag and "flux tower" in frag
