@@ -17,7 +17,11 @@ a range, from its raw value to the value with the balance closed at the tower's 
 (``closed``: raw / closure, as FLUXNET's ``LE_CORR``), widened by :data:`TOL` of the net
 radiation for the tower's random error. An implied share inside the range agrees with the
 tower. ``closure`` is :math:`(H + LE) / (R_n - G)` summed over the midday rows (R_n above half
-its maximum), with the fit's G.
+its maximum), with the fit's G: since the fit's own H + LE is :math:`R_n - G`, it is the
+tower's turbulent flux over the fit's, so it is held to :data:`CLOSURE` before the range is
+drawn (else the closed shares would be the fit's own total split at the tower's Bowen ratio,
+and a fit that sends too much or too little into the ground would always agree). A flux with
+no measurement at midday is left out.
 """
 
 from __future__ import annotations
@@ -30,6 +34,8 @@ import numpy as np
 FLUXES = ("H", "LE")
 #: a midday share agrees with the tower's within this fraction of R_n beyond its closure range
 TOL = 0.1
+#: the closures a tower is read with: the fit's implied closure is held to this range
+CLOSURE = (0.7, 1.0)
 
 
 def tower_fluxes(meas) -> dict[str, np.ndarray]:
@@ -89,7 +95,9 @@ class TowerCheck:
                          + f" ({'agrees' if v['agrees'] else 'DISAGREES'}; RMSE "
                          f"{v['rmse']:.0f} W m-2, bias {v['bias']:+.0f})")
         clo = ("" if self.closure is None else
-               f"; the tower closes {100 * self.closure:.0f} % of Rn - G")
+               f"; the tower closes {100 * self.closure:.0f} % of Rn - G (the fit's G)"
+               + ("" if CLOSURE[0] <= self.closure <= CLOSURE[1] else
+                  f", read at the nearer of {100 * CLOSURE[0]:.0f}-{100 * CLOSURE[1]:.0f} %"))
         return ("flux tower at midday (not fitted; agrees: within its closure range +-"
                 f"{TOL:g} Rn): " + "; ".join(parts) + clo)
 
@@ -97,7 +105,7 @@ class TowerCheck:
 def tower_check(partition, meas) -> TowerCheck | None:
     """The implied H and LE of ``partition`` (a
     :class:`~pavement_mcmc.physics.catalogue.energy.Partition`, the median over its sets)
-    against the tower's in ``meas``; None when the record has neither."""
+    against the tower's in ``meas``; None when the record has neither at midday."""
     fx = tower_fluxes(meas)
     if not fx:
         return None
@@ -111,18 +119,21 @@ def tower_check(partition, meas) -> TowerCheck | None:
         if both.any():
             closure = float(np.sum(fx["H"][both] + fx["LE"][both]) / np.sum(Rn[both] - G[both]))
     out = TowerCheck(closure=closure)
+    held = None if closure is None else min(max(closure, CLOSURE[0]), CLOSURE[1])
     for k, meas_k in fx.items():
         ok = np.isfinite(meas_k)
         rows = mid & ok
+        if not rows.any():  # nothing measured at midday: no share to compare
+            continue
         d = implied[k][ok] - meas_k[ok]
-        share_i = float(np.sum(implied[k][rows]) / np.sum(Rn[rows])) if rows.any() else np.nan
-        share_m = float(np.sum(meas_k[rows]) / np.sum(Rn[rows])) if rows.any() else np.nan
-        closed = share_m / closure if closure and closure > 0 else share_m
+        share_i = float(np.sum(implied[k][rows]) / np.sum(Rn[rows]))
+        share_m = float(np.sum(meas_k[rows]) / np.sum(Rn[rows]))
+        closed = share_m / held if held is not None else share_m
         lo, hi = min(share_m, closed) - TOL, max(share_m, closed) + TOL
         out.fluxes[k] = {"rmse": float(np.sqrt(np.mean(d**2))), "bias": float(np.mean(d)),
                          "implied": share_i, "measured": share_m, "closed": float(closed),
                          "agrees": bool(lo <= share_i <= hi)}
-    return out
+    return out if out.fluxes else None
 
 
 def fit_tower(fit) -> dict | None:

@@ -156,7 +156,8 @@ def _tower_sentence(tower: dict | None) -> str:
     """The energy balance's implied H and LE against the record's flux tower ('' without)."""
     if not tower:
         return ""
-    parts = [f"{k}/Rn {v['implied']:.2f} against {v['measured']:.2f}-{v['closed']:.2f}"
+    parts = [f"{k}/Rn {v['implied']:.2f} against "
+             + "-".join(f"{x:.2f}" for x in sorted((v["measured"], v["closed"])))
              for k, v in tower["fluxes"].items()]
     return (f" Its midday partition {'agrees with' if tower['agrees'] else 'DISAGREES with'} the "
             f"flux tower's, which the fit did not see ({'; '.join(parts)}, the tower's raw to "

@@ -159,3 +159,31 @@ def test_the_ranking_tries_penman_monteith_where_the_record_has_rh(tmp_path):
     assert rk.entries[0].tower["agrees"], rk.entries[0].tower["text"]
     dry, _ = case_problem(_tower_twin(tmp_path, (), 3))
     assert energy_law(dry.meas) == ENERGY
+
+
+def test_a_fit_that_sends_nothing_into_the_ground_disagrees_with_the_tower():
+    """The closure must not come from the fit under test: with the fit's own G, the 'closed'
+    shares are the tower's Bowen split of the fit's own H + LE, so any fit with the tower's
+    Bowen ratio agrees, however much it sends into the ground. Tower: H 0.2, LE 0.3 of Rn (a
+    loam's midday G/Rn about 0.4 at 85 % closure); the fit: G = 0, H 0.4, LE 0.6."""
+    Rn = np.array([[0.0, 400.0, 500.0, 400.0, 0.0]])
+    part = Partition(np.arange(5.0), Rn, 0.4 * Rn, 0.6 * Rn, np.zeros_like(Rn))
+
+    class Meas:
+        q_net = Rn[0]
+        extras = {"H": 0.2 * Rn[0], "LE": 0.3 * Rn[0]}
+
+    tc = tower_check(part, Meas)
+    assert not tc.fluxes["H"]["agrees"] and not tc.fluxes["LE"]["agrees"], tc.text()
+
+
+def test_a_flux_measured_only_at_night_is_not_called_a_disagreement():
+    Rn = np.array([[-50.0, 400.0, 500.0, 400.0, -50.0]])
+    part = Partition(np.arange(5.0), Rn, 0.2 * Rn, 0.5 * Rn, 0.3 * Rn)
+
+    class Meas:
+        q_net = Rn[0]
+        extras = {"H": np.array([-10.0, np.nan, np.nan, np.nan, -12.0])}
+
+    tc = tower_check(part, Meas)
+    assert tc is None or ("H" not in tc.fluxes and tc.agrees), tc.text()
