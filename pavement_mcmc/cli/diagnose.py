@@ -12,7 +12,13 @@ import sys
 import textwrap
 from pathlib import Path
 
-from ..criticism.entries import DATA_THRESHOLD, ENERGY_LAWS, FORECAST_THRESHOLD, LOSO_NONE
+from ..criticism.entries import (
+    DATA_THRESHOLD,
+    ENERGY_LAWS,
+    FORECAST_THRESHOLD,
+    LOSO_NONE,
+    energy_law,
+)
 from ..criticism.ranking import finer_h_spec
 from ..criticism.verdict import headline
 from ..physics.hbasis import FINER_H
@@ -186,7 +192,7 @@ def next_step(rk) -> list[str]:
     if rk.best is None and (rk.points_at or law) and not rk.base.problem.model.replaces_h:
         lines.append("Next: one held-out day is a weak test on a field record; over a longer "
                      "record test a surface energy balance day after day: pavement-mcmc rolling "
-                     f"<case.toml> <case.toml>+{law or ENERGY_LAWS[0]} (or a case of your own "
+                     f"<case.toml> <case.toml>+{law or energy_law(rk.base.problem.meas)} (or a case of your own "
                      "with the balance)")
     return lines
 

@@ -187,3 +187,22 @@ def test_a_flux_measured_only_at_night_is_not_called_a_disagreement():
 
     tc = tower_check(part, Meas)
     assert tc is None or ("H" not in tc.fluxes and tc.agrees), tc.text()
+
+
+def test_the_next_step_names_penman_monteith_where_the_record_has_rh():
+    """diagnose's next step after a 'points at the surface' verdict with no energy candidate
+    tried names the law the record supports (Penman-Monteith with RH), not always
+    Priestley-Taylor."""
+    from types import SimpleNamespace
+
+    from pavement_mcmc.cli.diagnose import next_step
+    from pavement_mcmc.criticism.entries import ENERGY, ENERGY_PM
+
+    def rk(extras):
+        meas = SimpleNamespace(extras=extras)
+        model = SimpleNamespace(replaces_h=False)
+        return SimpleNamespace(best=None, unexplained=None, entries=[], points_at={"x": 1},
+                               base=SimpleNamespace(problem=SimpleNamespace(meas=meas, model=model)))
+
+    assert f"+{ENERGY_PM} " in next_step(rk({"RH": np.full(4, 60.0)}))[-1]
+    assert f"+{ENERGY} " in next_step(rk({}))[-1]
