@@ -190,9 +190,10 @@ def next_step(rk) -> list[str]:
                      "pavement-mcmc diagnose <case.toml>+mymodule:MyEffect to score it")
     law = next((e.name for e in rk.entries if e.name in ENERGY_LAWS), None)  # the energy check
     if rk.best is None and (rk.points_at or law) and not rk.base.problem.model.replaces_h:
+        law = law or energy_law(rk.base.problem.meas)  # the one the record supports
         lines.append("Next: one held-out day is a weak test on a field record; over a longer "
                      "record test a surface energy balance day after day: pavement-mcmc rolling "
-                     f"<case.toml> <case.toml>+{law or energy_law(rk.base.problem.meas)} (or a case of your own "
+                     f"<case.toml> <case.toml>+{law} (or a case of your own "
                      "with the balance)")
     return lines
 
