@@ -12,7 +12,7 @@ out=$(mktemp -d)
 for seed in "${seeds[@]}"; do
   for kind in pm clean; do
     if [ "$kind" = pm ]; then
-      spec="{'tower': 0.85, 'et_available': 'net', 'vapour_kPa': 1.0, 'surface_resistance': 150.0}"
+      spec="{'tower': 0.85, 'vapour_kPa': 1.0, 'surface_resistance': 150.0}"
     else
       spec="{'tower': 0.85, 'vapour_kPa': 1.0}"
     fi

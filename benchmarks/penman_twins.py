@@ -27,7 +27,7 @@ def main(first: int, n: int) -> None:
     for r_s in (50.0, 150.0, 400.0):
         for vap in (0.8, 1.4):
             for seed in range(first, first + n):
-                spec = {"vapour_kPa": vap, "surface_resistance": r_s, "et_available": "net"}
+                spec = {"vapour_kPa": vap, "surface_resistance": r_s}  # on R_n - G
                 twin = forecast_twins(("wind_convection",), (seed,), hours=72.0, spec=spec)[0]
                 case = write_twin(twin, tmp / twin.name)
                 out = {}

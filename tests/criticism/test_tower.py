@@ -150,8 +150,7 @@ def test_the_ranking_tries_penman_monteith_where_the_record_has_rh(tmp_path):
     from pavement_mcmc.criticism.ranking import rank_missing_effects
 
     wet = forecast_twins(("wind_convection",), (1,), hours=72.0,
-                         spec={"tower": 0.85, "et_available": "net", "vapour_kPa": 1.0,
-                               "surface_resistance": 150.0})[0]
+                         spec={"tower": 0.85, "vapour_kPa": 1.0, "surface_resistance": 150.0})[0]
     pb, _ = case_problem(write_twin(wet, tmp_path / wet.name))
     assert energy_law(pb.meas) == ENERGY_PM
     rk = rank_missing_effects(pb, refit(pb).values(), candidates=[energy_law(pb.meas)])

@@ -18,21 +18,28 @@ from pavement_mcmc.synthetic import SyntheticSpec
 from pavement_mcmc.synthetic.corpus import forecast_twins, write_twin
 from pavement_mcmc.synthetic.simulate import simulate
 
-PM = {"vapour_kPa": 1.0, "surface_resistance": 150.0, "et_available": "net", "tower": 1.0}
+#: the simulator's Penman-Monteith on its own R_n - G (et_available's default), lagged a step
+PM = {"vapour_kPa": 1.0, "surface_resistance": 150.0, "tower": 1.0}
 
 
 def test_the_limits_by_hand():
     T, Rn, h = np.array([10.0, 20.0, 30.0]), np.array([400.0, 400.0, -60.0]), 12.0
     es, s = saturation(T)
-    # saturated air, no resistance: the equilibrium evaporation s Rn / (s + gamma), none at night
-    np.testing.assert_allclose(penman_monteith(Rn, T, 100.0, h, 0.0),
-                               s * np.maximum(Rn, 0) / (s + GAMMA))
+    # saturated air, no resistance: the equilibrium evaporation s Rn / (s + gamma), dew at night
+    np.testing.assert_allclose(penman_monteith(Rn, T, 100.0, h, 0.0), s * Rn / (s + GAMMA))
     # a large resistance: the supply limit (s A + h D) rho c_p / (gamma r_s h)
     r_s = 1e6
     D = es * (1 - 0.4)
     np.testing.assert_allclose(penman_monteith(Rn, T, 40.0, h, r_s),
-                               (s * np.maximum(Rn, 0) + h * D) * RHO_CP / (GAMMA * r_s * h),
+                               (s * Rn + h * D) * RHO_CP / (GAMMA * r_s * h),
                                rtol=1e-3)
+    # one value worked by hand: 20 degC, RH 50 %, Rn 400, h 12, r_s 70: e_s 2.338 kPa, s 0.1447
+    # kPa/K, D 1.169 kPa, denominator 0.1447 + 0.066 x 1.7 = 0.2569: (57.90 + 14.03) / 0.2569
+    assert penman_monteith(400.0, 20.0, 50.0, 12.0, 70.0) == pytest.approx(279.9, abs=0.2)
+    # the ground's share comes off the available energy: f (Rn - G)
+    assert (penman_monteith(400.0, 20.0, 50.0, 12.0, 70.0)
+            - penman_monteith(400.0, 20.0, 50.0, 12.0, 70.0, G=100.0)) == pytest.approx(
+        100.0 * 57.90 / 400.0 / 0.2569, rel=2e-3)
     # a drier air draws more, a larger resistance less
     assert np.all(penman_monteith(Rn, T, 30.0, h, 100.0) > penman_monteith(Rn, T, 70.0, h, 100.0))
     assert np.all(penman_monteith(Rn, T, 50.0, h, 300.0) < penman_monteith(Rn, T, 50.0, h, 100.0))

@@ -119,8 +119,9 @@ class EnergyBalance(Extension):
             return h0.copy()
         return h0 + p["eb_h1"][:, None] * np.asarray(meas.wind, float)[None, :]
 
-    def latent(self, p, meas) -> np.ndarray:
-        """Latent heat flux LE at each observation time (n_sets, n_obs), W m-2."""
+    def latent(self, p, meas, G=None) -> np.ndarray:
+        """Latent heat flux LE at each observation time (n_sets, n_obs), W m-2 (``G``, the
+        solved flux into the surface, is not needed by this form)."""
         names = self.alpha_names(meas)
         alpha = np.stack([np.asarray(p[n], float) for n in names], axis=1)
         a_t = alpha[:, day_index(meas.t, len(names))]
@@ -211,7 +212,7 @@ def energy_partition(model, p: dict[str, np.ndarray]) -> Partition:
     coeffs = model.coefficients(p)
     G = model.surface_flux(model.solve(p), coeffs)
     Rn = np.broadcast_to(np.asarray(model.meas.q_net, float), G.shape)
-    LE = ext.latent(p, model.meas)
+    LE = ext.latent(p, model.meas, G)
     # what a shadow keeps off the spot, by its own law; H the rest of the skin's balance
     # (Rn - off - LE - H = G: with a surface_layer coeffs.q - G is not the law's H)
     off = np.zeros(G.shape)
