@@ -205,5 +205,4 @@ def _verdict(eb: EnergyBalance) -> str:
     checks = [name for name, done in (("the measured-top fit", eb.top is not None),
                                        ("the plates", bool(eb.plates)),
                                        ("the flux tower", eb.tower_share is not None)) if done]
-    return ("The energy entering the ground is consistent with " + " and ".join(checks) + "."
-            if checks else "The energy entering the ground is consistent.")
+    return "The energy entering the ground is consistent with " + " and ".join(checks) + "."

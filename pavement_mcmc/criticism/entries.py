@@ -79,6 +79,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..physics.catalogue.penman import has_humidity
 from .fitting import Fit
 from .residuals import inflation, pooled_lag1
 
@@ -125,8 +126,7 @@ ENERGY_LAWS = (ENERGY, ENERGY_PM)
 def energy_law(meas) -> str:
     """The surface energy balance the criticism tries on ``meas``: :data:`ENERGY_PM` where the
     record has the relative humidity without gaps, else :data:`ENERGY`."""
-    rh = getattr(meas, "extras", {}).get("RH")
-    return ENERGY_PM if rh is not None and bool(np.all(np.isfinite(rh))) else ENERGY
+    return ENERGY_PM if has_humidity(meas) else ENERGY
 
 #: per-sensor nuisances: claimable only if their offsets are not one coherent depth profile
 PER_SENSOR = ("sensor_bias", "sensor_depth")

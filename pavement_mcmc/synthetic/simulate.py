@@ -220,6 +220,9 @@ def _check(spec: SyntheticSpec) -> tuple[np.ndarray, float]:
         raise ValueError(f"flux_depths_cm={spec.flux_depths_cm} holds the same depth twice")
     if spec.et_available not in ("net_minus_ground", "net"):
         raise ValueError(f"et_available={spec.et_available!r}; valid: 'net_minus_ground', 'net'")
+    if spec.tower < 0 or spec.vapour_kPa < 0:
+        raise ValueError(f"tower={spec.tower:g} and vapour_kPa={spec.vapour_kPa:g} must be >= 0 "
+                         "(0: no tower, no RH column)")
     if spec.surface_resistance is not None and (
             spec.vapour_kPa <= 0 or spec.surface_resistance < 0
             or "evapotranspiration" in (spec.effects or {})):

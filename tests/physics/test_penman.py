@@ -53,6 +53,8 @@ def test_the_twin_carries_rh_and_its_latent_heat():
     assert np.median(cols["LE"][cols["q_net"] > 300]) > 100  # the tower sees the latent heat
     with pytest.raises(ValueError, match="needs vapour_kPa > 0"):
         simulate(SyntheticSpec(hours=24.0, surface_resistance=100.0))
+    with pytest.raises(ValueError, match="must be >= 0"):
+        simulate(SyntheticSpec(hours=24.0, vapour_kPa=-1.0))
 
 
 def test_the_law_refuses_a_record_without_humidity(tmp_path):

@@ -65,6 +65,13 @@ def saturation(T_air: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return es, 4098.0 * es / (T + 237.3) ** 2
 
 
+def has_humidity(meas) -> bool:
+    """Whether ``meas`` holds a relative humidity without gaps (the law needs one at every
+    time)."""
+    rh = getattr(meas, "extras", {}).get("RH")
+    return rh is not None and bool(np.all(np.isfinite(rh)))
+
+
 def pm_terms(Rn, T_air, RH, h_H, r_s) -> tuple[np.ndarray, np.ndarray]:
     """``(f, V)`` of the module doc: the share of the available energy R_n - G and the vapour
     flux (W m-2) that leave as latent heat. Arrays broadcast (``h_H`` and ``r_s`` may be
@@ -96,8 +103,7 @@ class EnergyBalancePM(EnergyBalance):
         return [f"eb_rs_{d + 1}" for d in range(n_days_of(meas.t))]
 
     def parameters(self, meas):
-        rh = getattr(meas, "extras", {}).get("RH")
-        if rh is None or not np.all(np.isfinite(rh)):
+        if not has_humidity(meas):
             raise ValueError(f"{self.name} needs the relative humidity (an 'RH' column, %, in the "
                              "case CSV or the [data] extras CSV, without gaps); without it use "
                              "energy_balance (Priestley-Taylor)")
