@@ -124,7 +124,8 @@ def test_diagnose_points_a_surface_verdict_at_the_rolling_test():
         model = SimpleNamespace(replaces_h=replaces_h)
         return SimpleNamespace(best=None, unexplained=None, points_at=points_at,
                                entries=[SimpleNamespace(name=n) for n in tried],
-                               base=SimpleNamespace(problem=SimpleNamespace(model=model)))
+                               base=SimpleNamespace(problem=SimpleNamespace(
+                                   model=model, meas=SimpleNamespace(extras={}))))
 
     surface = ranking({"where": "surface energy balance", "candidates": []})
     assert "pavement-mcmc rolling <case.toml> <case.toml>+energy_balance_window" in \
