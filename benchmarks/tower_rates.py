@@ -61,9 +61,9 @@ def main(first: int, n: int) -> None:
                 count(f"{name}: LE fixed at 0 disagrees on LE", not dry.fluxes["LE"]["agrees"])
             pb, _ = case_problem(case)
             eb = energy_balance(pb, refit(pb).values(), top_fit=False)
-            alarm = eb.midday_share > eb.tower_share + 0.1
+            alarm = eb.fit_share > eb.tower_share + 0.1
             count(f"{name}: base fit (free h), no tower alarm", not alarm)
-            print(line + f" | base G/Rn {eb.midday_share:.2f} vs tower {eb.tower_share:.2f}",
+            print(line + f" | base G/Rn {eb.fit_share:.2f} vs tower {eb.tower_share:.2f}",
                   flush=True)
     for key, (k, m) in counts.items():
         print(f"{key}: {k} of {m}")

@@ -49,10 +49,12 @@ def midday_rows(Rn: np.ndarray) -> np.ndarray:
     return Rn > 0.5 * max(float(np.nanmax(Rn)), 1e-9)
 
 
-def tower_ground_share(meas) -> float | None:
+def tower_ground_share(meas, G=None):
     r"""The share of the net radiation at midday the tower leaves for the ground,
     :math:`\sum (R_n - H - LE) / \sum R_n` over the midday rows where both are measured (an
-    upper bound of the true share when the tower misses turbulent flux); None without both."""
+    upper bound of the true share when the tower misses turbulent flux); None without both.
+    With a fit's ground flux ``G`` (n_obs,): ``(tower's share, the fit's \sum G / \sum R_n over
+    the same rows)``, or None."""
     fx = tower_fluxes(meas)
     if set(fx) != set(FLUXES):
         return None
@@ -60,7 +62,10 @@ def tower_ground_share(meas) -> float | None:
     rows = midday_rows(Rn) & np.isfinite(fx["H"]) & np.isfinite(fx["LE"])
     if not rows.any():
         return None
-    return float(np.sum(Rn[rows] - fx["H"][rows] - fx["LE"][rows]) / np.sum(Rn[rows]))
+    tower = float(np.sum(Rn[rows] - fx["H"][rows] - fx["LE"][rows]) / np.sum(Rn[rows]))
+    if G is None:
+        return tower
+    return tower, float(np.sum(np.asarray(G, float)[rows]) / np.sum(Rn[rows]))
 
 
 @dataclass
