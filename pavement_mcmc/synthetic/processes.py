@@ -35,6 +35,13 @@ def rain_latent_flux(t_rows: np.ndarray, rain: np.ndarray, A: float, tau_h: floa
     return q
 
 
+def saturation_pressure(T: np.ndarray) -> np.ndarray:
+    """Saturation vapour pressure ``e_s(T) = 0.6108 exp(17.27 T / (T + 237.3))`` kPa, T in degC
+    (Tetens, FAO-56 eq. 11)."""
+    T = np.asarray(T, float)
+    return 0.6108 * np.exp(17.27 * T / (T + 237.3))
+
+
 def saturation_slope(T: np.ndarray) -> np.ndarray:
     """Slope s of the saturation vapour pressure curve (Tetens), kPa K-1.
 
@@ -42,8 +49,7 @@ def saturation_slope(T: np.ndarray) -> np.ndarray:
     T in degC (FAO-56, eq. 13). About 0.145 kPa K-1 at 20 degC.
     """
     T = np.asarray(T, float)
-    e_s = 0.6108 * np.exp(17.27 * T / (T + 237.3))
-    return 4098.0 * e_s / (T + 237.3) ** 2
+    return 4098.0 * saturation_pressure(T) / (T + 237.3) ** 2
 
 
 def priestley_taylor_factor(T_air: np.ndarray, alpha: float) -> np.ndarray:
@@ -61,7 +67,7 @@ def penman_monteith_terms(T_air: np.ndarray, h: np.ndarray, vapour_kPa: float,
     (W m-2 K-1, rho c_p / r_a), r_s the surface resistance (s m-1) and rho c_p = 1200 J m-3 K-1,
     factor = s / den and vapour flux = h D / den, den = s + gamma (1 + r_s h / rho c_p)."""
     T = np.asarray(T_air, float)
-    e_s = 0.6108 * np.exp(17.27 * T / (T + 237.3))
+    e_s = saturation_pressure(T)
     s = saturation_slope(T)
     den = s + PSYCHROMETRIC * (1.0 + r_s * np.asarray(h, float) / 1200.0)
     return s / den, np.asarray(h, float) * np.maximum(e_s - vapour_kPa, 0.0) / den
@@ -69,8 +75,7 @@ def penman_monteith_terms(T_air: np.ndarray, h: np.ndarray, vapour_kPa: float,
 
 def relative_humidity(T_air: np.ndarray, vapour_kPa: float) -> np.ndarray:
     """RH (%) of air at ``T_air`` (degC) holding ``vapour_kPa`` of water vapour, at most 100."""
-    T = np.asarray(T_air, float)
-    return np.minimum(100.0 * vapour_kPa / (0.6108 * np.exp(17.27 * T / (T + 237.3))), 100.0)
+    return np.minimum(100.0 * vapour_kPa / saturation_pressure(T_air), 100.0)
 
 
 SHADE_EDGE_MINUTES = 10.0

@@ -50,19 +50,12 @@ from ...parameters import Parameter
 from ...parameters.priors import TruncatedNormal
 from ..registry import register_extension
 from .energy import EnergyBalance, day_index, n_days_of
+from .surface import saturation
 
 #: psychrometric constant, kPa K-1 (FAO-56 at sea level)
 GAMMA = 0.066
 #: volumetric heat capacity of air, J m-3 K-1 (1.2 kg m-3 x 1005 J kg-1 K-1)
 RHO_CP = 1200.0
-
-
-def saturation(T_air: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """``(e_s, s)``: saturation vapour pressure (kPa) and its slope (kPa K-1) at ``T_air``
-    (degC), Tetens' formula as in FAO-56."""
-    T = np.asarray(T_air, float)
-    es = 0.6108 * np.exp(17.27 * T / (T + 237.3))
-    return es, 4098.0 * es / (T + 237.3) ** 2
 
 
 def has_humidity(meas) -> bool:
@@ -75,10 +68,12 @@ def has_humidity(meas) -> bool:
 def pm_terms(Rn, T_air, RH, h_H, r_s) -> tuple[np.ndarray, np.ndarray]:
     """``(f, V)`` of the module doc: the share of the available energy R_n - G and the vapour
     flux (W m-2) that leave as latent heat. Arrays broadcast (``h_H`` and ``r_s`` may be
-    (n_sets, n_obs), the others (n_obs,)); ``Rn`` only sets the shape."""
+    (n_sets, n_obs), the others (n_obs,)); both come out in the shape of ``Rn`` broadcast
+    with them."""
     es, s = saturation(T_air)
     D = es * (1.0 - np.clip(np.asarray(RH, float), 0.0, 100.0) / 100.0)
-    den = s + GAMMA * (1.0 + r_s * h_H / RHO_CP) + 0.0 * np.asarray(Rn, float)
+    den = np.broadcast_to(s + GAMMA * (1.0 + r_s * h_H / RHO_CP),
+                          np.broadcast_shapes(np.shape(Rn), np.shape(s * r_s * h_H)))
     return s / den, h_H * D / den
 
 

@@ -102,12 +102,18 @@ class RadiationFactor(Extension):
         coeffs.q += (p["rad_factor"] - 1.0)[:, None] * model.meas.q_net[None, :]
 
 
-def priestley_taylor_weight(T_air: np.ndarray) -> np.ndarray:
-    """``s / (s + gamma_psy)`` at the air temperature (degC): ``s`` the slope of the saturation
-    vapour pressure curve (Tetens, kPa K-1), ``gamma_psy = 0.066`` kPa K-1 (FAO-56)."""
+def saturation(T_air: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``(e_s, s)``: saturation vapour pressure (kPa) and its slope (kPa K-1) at ``T_air``
+    (degC), Tetens' formula as in FAO-56."""
     T = np.asarray(T_air, float)
     es = 0.6108 * np.exp(17.27 * T / (T + 237.3))
-    s = 4098.0 * es / (T + 237.3) ** 2
+    return es, 4098.0 * es / (T + 237.3) ** 2
+
+
+def priestley_taylor_weight(T_air: np.ndarray) -> np.ndarray:
+    """``s / (s + gamma_psy)`` at the air temperature (degC): ``s`` the slope of the saturation
+    vapour pressure curve (:func:`saturation`), ``gamma_psy = 0.066`` kPa K-1 (FAO-56)."""
+    s = saturation(T_air)[1]
     return s / (s + 0.066)
 
 
