@@ -96,6 +96,9 @@ def _assemble(cfg, extensions, h_spec, given: Grid | None = None):
     gamma_prior = cfg.parameters.get("gamma", {}).get("prior", {})
     gamma0 = float(gamma_prior.get("scale", 2.22))
     data = cfg.data
+    # the infrared surface temperature, an offset its nuisance: built first, since a case may
+    # set its parameters (``[parameters.ir_offset]``) and the grid's choice configures them
+    extra = [SurfaceIR(meas, data["ir_sigma"])] if "ir_sigma" in data else []
 
     def model_on(grid: Grid) -> Model:
         return Model(meas, grid, basis, exts, scheme=grid_cfg.get("scheme", "cn"), gamma0=gamma0,
@@ -103,7 +106,7 @@ def _assemble(cfg, extensions, h_spec, given: Grid | None = None):
 
     def predict(grid: Grid) -> np.ndarray:  # at the parameters' values, for the grid's choice
         m = model_on(grid)
-        space = m.parameter_space().configure(_known(cfg.parameters, m))
+        space = with_parameters(m.parameter_space(), extra).configure(_known(cfg.parameters, m))
         return m.predict(space.expand(space.initial()[None]))[0]
 
     if given is None:
@@ -115,9 +118,7 @@ def _assemble(cfg, extensions, h_spec, given: Grid | None = None):
     if model.plates:
         flux_sd = default_flux_sd(meas.G_obs[1:], data.get("plate_sigma", 2.0),
                                   data.get("plate_rel_sigma", 0.1))
-    streams = default_streams(model, flux_sd)
-    if "ir_sigma" in data:  # the infrared surface temperature, an offset its nuisance
-        streams.append(SurfaceIR(meas, data["ir_sigma"]))
+    streams = default_streams(model, flux_sd) + extra
     space = with_parameters(model.parameter_space(), streams)
     space = space.configure(_known(cfg.parameters, model))
     posterior = LogPosterior(model, space, streams=streams)

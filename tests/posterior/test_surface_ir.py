@@ -16,10 +16,11 @@ from pavement_mcmc.synthetic.io import write_case
 OFFSET, IR_SD = 1.5, 0.2
 
 
-def _twin(tmp_path: Path, plates: tuple = (), model: str = 'h = { kind = "uniform", n = 4 }\n') -> Path:
+def _twin(tmp_path: Path, plates: tuple = (), model: str = 'h = { kind = "uniform", n = 4 }\n',
+          **spec_kw) -> Path:
     """A 12-h twin (no hidden effect) and its extras.csv: T_surf_IR = the simulated surface
     temperature (the top node of the simulator's fine column) + OFFSET + N(0, IR_SD)."""
-    spec = SyntheticSpec(hours=12, step_minutes=15, seed=3, flux_depths_cm=plates)
+    spec = SyntheticSpec(hours=12, step_minutes=15, seed=3, flux_depths_cm=plates, **spec_kw)
     write_case(spec, tmp_path)
     cols, truth = simulate(spec)  # deterministic in the seed: the same record again
     rng = np.random.default_rng(7)
@@ -80,6 +81,18 @@ def test_ir_gradient_through_the_canopy_skin(tmp_path, model):
     np.testing.assert_allclose(g, ref, rtol=0, atol=1e-6 * np.abs(ref).max())
     j = pb.space.free.index("R_surface")
     np.testing.assert_allclose(g[:, j], ref[:, j], rtol=1e-5)
+
+
+def test_the_ir_parameters_can_be_set_in_a_case_whose_grid_is_chosen(tmp_path):
+    """A bottom deeper than 10 cm makes the auto grid compare predictions at the case's values,
+    which configured the model's parameters without the stream's: ``[parameters.ir_view]``, as
+    the stream's docstring says to set it, was refused as unknown."""
+    toml = _twin(tmp_path, depths_cm=(0.0, 2.0, 5.0, 10.0), bottom_cm=20.0,
+                 model='h = { kind = "uniform", n = 4 }\n[parameters.ir_view]\nvary = true\n'
+                       '[parameters.ir_offset]\nvalue = 1.0\n')
+    pb = build_problem(load_case(toml))
+    assert pb.grid_chosen["kind"] == "stretched" and "ir_view" in pb.space.free
+    assert pb.space["ir_offset"].value == 1.0
 
 
 def test_fit_recovers_the_ir_offset(tmp_path):
