@@ -25,6 +25,9 @@ Schema (paths are relative to the TOML file's directory)::
                                     # SW_in, SW_out, LW_in, LW_out: data/extras.py)
     ir_sigma = 0.5                  # optional, degC: observe T_surf_IR with this sd and an
                                     # offset parameter ir_offset (posterior/surface_ir.py)
+    dew_below_tmin = 0.0            # optional, K: no humidity measured; the dew point T_dew is
+                                    # the 24 h minimum air temperature less this (FAO-56;
+                                    # 2-4 over arid ground; data/humidity.py)
     preset = "ameriflux"            # optional: an AmeriFlux / FLUXNET file as it is, with
     utc_offset_hours = -7           #   its local standard time, the sample time of an
     timestamp = "middle"            #   interval and the soil columns' depths (data/fluxsite.py)
@@ -59,6 +62,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from .humidity import with_dew_from_tmin
 from .measurements import Measurements
 from .reader import read_csv_case, record_stamps
 from .schema import GRID_DEFAULTS, SAMPLER_DEFAULTS, ConfigError, _check_h, _validate
@@ -196,6 +200,8 @@ def load_case(
             preset_options={k: data[k] for k in PRESET_KEYS if k in data},
             forcing_optional=raw.get("model", {}).get("top") == "measured",
         )
+        if "dew_below_tmin" in data:  # FAO-56: the dew point from the daily minimum
+            meas = with_dew_from_tmin(meas, data["dew_below_tmin"])
     except ValueError as exc:
         exc.add_note(f"while loading the [data] section of {where}")
         raise

@@ -7,6 +7,8 @@ column         unit          meaning
 ``T_surf_IR``  degC          infrared surface temperature (a radiometric skin or canopy
                              temperature; observed with ``[data] ir_sigma``)
 ``RH``         %             relative humidity of the air, 0-100
+``T_dew``      degC          dew point of the air (or estimated from the daily minimum
+                             air temperature: ``[data] dew_below_tmin``, :mod:`.humidity`)
 ``SW_in``      W m-2         incoming (downwelling) short-wave radiation, >= 0
 ``SW_out``     W m-2         reflected (upwelling) short-wave radiation, >= 0
 ``LW_in``      W m-2         incoming (downwelling) long-wave radiation, > 0
@@ -51,7 +53,7 @@ from .times import format_time
 __all__ = ["EXTRA_ROLES", "check_extra", "merge_extras"]
 
 #: the optional named series and their units
-EXTRA_ROLES = {"T_surf_IR": "degC", "RH": "%", "SW_in": "W m-2", "SW_out": "W m-2",
+EXTRA_ROLES = {"T_surf_IR": "degC", "RH": "%", "T_dew": "degC", "SW_in": "W m-2", "SW_out": "W m-2",
                "LW_in": "W m-2", "LW_out": "W m-2", "LE": "W m-2", "H": "W m-2"}
 #: times of the two files closer than this (s) are the same time
 TIME_TOL = 0.5
@@ -64,7 +66,7 @@ def check_extra(table: _Table, col: int, arr: np.ndarray, idx: np.ndarray, role:
     if not known.any():
         return
     arr, idx = arr[known], idx[known]
-    if role == "T_surf_IR":
+    if role in ("T_surf_IR", "T_dew"):
         _check_temperature(table, col, arr, idx)
     elif role == "RH":
         if arr.size and float(np.max(arr)) <= 1.5:

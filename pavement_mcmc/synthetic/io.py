@@ -54,6 +54,17 @@ def write_case(spec: SyntheticSpec, directory: str | Path, name: str | None = No
     return csv_path
 
 
+def drop_columns(csv_path: str | Path, names: tuple[str, ...]) -> None:
+    """Remove the columns ``names`` from a written twin's CSV, in place: a record that lacks a
+    series the simulator made (a site without humidity: ``("RH",)``)."""
+    path = Path(csv_path)
+    with path.open(newline="") as f:
+        rows = list(csv.reader(f))
+    keep = [j for j, h in enumerate(rows[0]) if h not in names]
+    with path.open("w", newline="") as f:
+        csv.writer(f, lineterminator="\n").writerows([[r[j] for j in keep] for r in rows])
+
+
 def _decimals(column: str) -> int:
     return 1 if column.startswith("G_") or column in ("H", "LE") else _DECIMALS.get(column, 2)
 

@@ -60,7 +60,7 @@ def test_the_twin_carries_rh_and_its_latent_heat():
 def test_the_law_refuses_a_record_without_humidity(tmp_path):
     twin = forecast_twins((), (5,), hours=48.0)[0]
     pb, _ = case_problem(write_twin(twin, tmp_path / "dry"))
-    with pytest.raises(ValueError, match="needs the relative humidity"):
+    with pytest.raises(ValueError, match="needs the air.s humidity"):
         get_extension("energy_balance_pm").parameters(pb.meas)
 
 

@@ -1,6 +1,8 @@
 r"""The surface energy balance with the latent heat in the Penman–Monteith form: where the record
 has the relative humidity (``RH``, %, in the case CSV or the ``[data] extras`` CSV; AmeriFlux's
-``RH`` through the preset), the evaporative demand of the air enters the latent heat, and the
+``RH`` through the preset) or the dew point (``T_dew``, degC; where neither is measured,
+``[data] dew_below_tmin`` estimates it from the daily minimum air temperature, FAO-56:
+:mod:`pavement_mcmc.data.humidity`), the evaporative demand of the air enters the latent heat, and the
 surface's own control is a resistance that may drift from day to day:
 
 .. math::
@@ -58,11 +60,24 @@ GAMMA = 0.066
 RHO_CP = 1200.0
 
 
+def humidity(meas) -> np.ndarray | None:
+    """The relative humidity (n_obs,), %, of ``meas``: its ``RH``, else from its dew point
+    ``T_dew`` (measured, or estimated by ``[data] dew_below_tmin``, FAO-56:
+    :mod:`pavement_mcmc.data.humidity`) as ``100 e_s(T_d) / e_s(T_a)``; None without either
+    or with a gap (the law needs one at every time)."""
+    extras = getattr(meas, "extras", {})
+    if "RH" in extras:
+        rh = np.asarray(extras["RH"], float)
+    elif "T_dew" in extras:
+        rh = 100.0 * saturation(extras["T_dew"])[0] / saturation(meas.T_air)[0]
+    else:
+        return None
+    return rh if bool(np.all(np.isfinite(rh))) else None
+
+
 def has_humidity(meas) -> bool:
-    """Whether ``meas`` holds a relative humidity without gaps (the law needs one at every
-    time)."""
-    rh = getattr(meas, "extras", {}).get("RH")
-    return rh is not None and bool(np.all(np.isfinite(rh)))
+    """Whether ``meas`` holds a humidity (:func:`humidity`) without gaps."""
+    return humidity(meas) is not None
 
 
 def pm_terms(Rn, T_air, RH, h_H, r_s) -> tuple[np.ndarray, np.ndarray]:
@@ -99,9 +114,11 @@ class EnergyBalancePM(EnergyBalance):
 
     def parameters(self, meas):
         if not has_humidity(meas):
-            raise ValueError(f"{self.name} needs the relative humidity (an 'RH' column, %, in the "
-                             "case CSV or the [data] extras CSV, without gaps); without it use "
-                             "energy_balance (Priestley-Taylor)")
+            raise ValueError(f"{self.name} needs the air's humidity without gaps: an 'RH' (%) or "
+                             "'T_dew' (degC) column in the case CSV or the [data] extras CSV, or "
+                             "its FAO-56 estimate from the air temperature ([data] "
+                             "dew_below_tmin = 0, 2-4 over arid ground); or use energy_balance "
+                             "(Priestley-Taylor)")
         h = [p for p in super().parameters(meas) if not p.name.startswith("eb_alpha")]
         names = self.rs_names(meas)
         group = "" if len(names) == 1 else "eb_rs"
@@ -115,7 +132,7 @@ class EnergyBalancePM(EnergyBalance):
         names = self.rs_names(meas)
         rs = np.stack([np.asarray(p[n], float) for n in names], axis=1)
         rs_t = rs[:, day_index(meas.t, len(names))]
-        return pm_terms(meas.q_net, meas.T_air, meas.extras["RH"], self.transfer(p, meas), rs_t)
+        return pm_terms(meas.q_net, meas.T_air, humidity(meas), self.transfer(p, meas), rs_t)
 
     def latent(self, p, meas, G=None) -> np.ndarray:
         """LE (n_sets, n_obs), W m-2, given the solved heat flux into the surface ``G``."""

@@ -1,0 +1,54 @@
+r"""A dew point estimated from the air temperature, for a record without a humidity series.
+
+FAO-56 (Allen et al. 1998, eq. 48 and Annex 6): where humidity is not measured, the dew point
+is about the day's minimum air temperature, since the air near the ground cools at night to
+about its dew point; over arid or semi-arid ground the night air stays drier, and the dew point
+lies 2-4 K below the minimum. So
+
+.. math:: T_d(t) = \min_{|t' - t| \le 12\,\mathrm{h}} T_a(t') - \Delta,
+
+the minimum over the 24 h centred on each time (no calendar day, so no time zone is needed),
+:math:`\Delta` = ``[data] dew_below_tmin`` (K, >= 0). The estimate becomes the record's
+``T_dew`` extra (degC), which the Penman–Monteith energy balance
+(:mod:`pavement_mcmc.physics.catalogue.penman`) reads when there is no ``RH``. It is an
+estimate: it misses humid days after dry nights and dry air advected by day; where the record
+measures ``RH`` or ``T_dew`` the option is refused.
+"""
+
+from __future__ import annotations
+
+from dataclasses import replace
+from types import MappingProxyType
+
+import numpy as np
+
+from .checks import DataError
+
+__all__ = ["HALF_WINDOW", "dew_from_tmin", "with_dew_from_tmin"]
+
+#: half the window of the running minimum, s
+HALF_WINDOW = 12 * 3600.0
+
+
+def dew_from_tmin(t: np.ndarray, T_air: np.ndarray, below: float = 0.0) -> np.ndarray:
+    """Dew point (n_obs,), degC: the minimum of ``T_air`` within 12 h of each time ``t`` (s),
+    less ``below`` (K). Missing air temperatures (NaN) are skipped."""
+    t = np.asarray(t, float)
+    T = np.asarray(T_air, float)
+    lo = np.searchsorted(t, t - HALF_WINDOW, side="left")
+    hi = np.searchsorted(t, t + HALF_WINDOW, side="right")
+    return np.array([np.nanmin(T[a:b]) for a, b in zip(lo, hi, strict=True)]) - float(below)
+
+
+def with_dew_from_tmin(meas, below: float):
+    """``meas`` with a ``T_dew`` extra estimated by :func:`dew_from_tmin` (a DataError if the
+    record measures its humidity, or has no air temperature at some time)."""
+    have = [k for k in ("RH", "T_dew") if k in meas.extras]
+    if have:
+        raise DataError(f"{meas.source}: dew_below_tmin estimates the humidity, but the record "
+                        f"measures it ({', '.join(have)}): drop dew_below_tmin to use it")
+    if not np.all(np.isfinite(meas.T_air)):
+        raise DataError(f"{meas.source}: dew_below_tmin needs the air temperature at every time")
+    dew = dew_from_tmin(meas.t, meas.T_air, below)
+    dew.flags.writeable = False
+    return replace(meas, extras=MappingProxyType({**meas.extras, "T_dew": dew}))

@@ -1,0 +1,94 @@
+"""A dew point estimated from the air temperature where a record has no humidity (FAO-56 eq. 48;
+data/humidity.py): the running 24 h minimum of a known daily wave, its offset, the refusal
+where humidity is measured, and the Penman–Monteith law reading it."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from pavement_mcmc.data import ConfigError, DataError, load_case
+from pavement_mcmc.data.humidity import dew_from_tmin
+from pavement_mcmc.physics import get_extension
+from pavement_mcmc.physics.catalogue.penman import has_humidity, humidity, saturation
+from pavement_mcmc.synthetic.corpus import forecast_twins, write_twin
+
+DAY = 86400.0
+
+
+def test_the_dew_point_is_the_minimum_within_twelve_hours():
+    t = np.arange(0.0, 3 * DAY + 1, 1800.0)
+    # a daily wave whose minimum falls to 4 degC on day 1 and 6 degC on day 2 (at 06:00)
+    depth = np.where(t < 1.5 * DAY, 6.0, 4.0)
+    T = 10.0 - depth * np.cos(2 * np.pi * (t - 0.25 * DAY) / DAY)
+    d = dew_from_tmin(t, T)
+    at = {h: d[int(h * 2)] for h in (18, 30, 54)}  # hours from the start
+    assert at[18] == pytest.approx(10 - 6.0)  # 06:00 of day 1 is 12 h back: its minimum
+    assert at[30] == pytest.approx(10 - 6.0)  # 06:00 of day 1 and 06:00 of day 2 both within
+    assert at[54] == pytest.approx(10 - 4.0)  # only day 2's shallower minimum within 12 h
+    assert np.all(d <= T + 1e-12)  # never above the air
+    np.testing.assert_allclose(dew_from_tmin(t, T, below=2.5), d - 2.5)
+    T_gap = T.copy()
+    T_gap[12] = np.nan  # 06:00 of day 0, the minimum: skipped, the next-coldest row counts
+    assert dew_from_tmin(t, T_gap)[12] == pytest.approx(np.nanmin(T_gap[:37]))
+
+
+def _dry_twin(tmp_path, extra: str = "dew_below_tmin = 0.0\n", spec=None):
+    twin = forecast_twins((), (5,), hours=48.0, spec=spec)[0]
+    case = write_twin(twin, tmp_path / "twin")
+    case.write_text(case.read_text().replace("[data]\n", "[data]\n" + extra, 1))
+    return case
+
+
+def test_a_case_estimates_its_dew_point_and_the_law_reads_it(tmp_path):
+    m = load_case(_dry_twin(tmp_path)).measurements
+    assert "RH" not in m.extras and has_humidity(m)
+    np.testing.assert_allclose(m.extras["T_dew"], dew_from_tmin(m.t, m.T_air))
+    rh = humidity(m)
+    np.testing.assert_allclose(rh, 100 * saturation(m.extras["T_dew"])[0] / saturation(m.T_air)[0])
+    assert rh.max() == pytest.approx(100.0) and rh.min() < 70.0  # saturated at dawn, dry by day
+    names = [p.name for p in get_extension("energy_balance_pm_window").parameters(m)]
+    assert "eb_rs" in names
+
+
+def test_a_measured_humidity_is_not_replaced_by_the_estimate(tmp_path):
+    with pytest.raises(DataError, match="measures it .RH."):
+        load_case(_dry_twin(tmp_path, spec={"vapour_kPa": 1.0}))
+    with pytest.raises(ConfigError, match="dew_below_tmin"):
+        load_case(_dry_twin(tmp_path, extra="dew_below_tmin = -2.0\n"))
+
+
+def test_a_measured_dew_point_is_read_when_there_is_no_rh():
+    class Meas:
+        T_air = np.array([5.0, 15.0, 25.0])
+        extras = {"T_dew": np.array([5.0, 5.0, 5.0])}
+
+    # FAO-56 Annex 2 table 2.3: e_s 0.872, 1.705, 3.168 kPa at 5, 15, 25 degC
+    np.testing.assert_allclose(humidity(Meas), [100.0, 51.1, 27.5], atol=0.1)
+    Meas.extras = {**Meas.extras, "RH": np.array([90.0, 80.0, 70.0])}
+    np.testing.assert_array_equal(humidity(Meas), [90.0, 80.0, 70.0])  # RH first
+    Meas.extras = {"T_dew": np.array([5.0, np.nan, 5.0])}
+    assert not has_humidity(Meas)
+
+
+def test_a_humid_twin_without_rh_is_recovered_through_its_estimated_dew_point(tmp_path):
+    """A twin whose latent heat follows Penman–Monteith on a fixed vapour pressure of 1.4 kPa
+    (the simulator's), written without its RH column: the law on the dew point estimated from
+    T_min recovers the soil and the resistance, Priestley–Taylor on the same record does not."""
+    from pavement_mcmc.criticism import refit
+    from pavement_mcmc.criticism.point import case_problem
+    from pavement_mcmc.synthetic.io import drop_columns
+
+    twin = forecast_twins(("wind_convection",), (1,), hours=72.0,
+                          spec={"vapour_kPa": 1.4, "surface_resistance": 150.0})[0]
+    case = write_twin(twin, tmp_path / twin.name)
+    drop_columns(case.parent / "measurements.csv", ("RH",))
+    with pytest.raises(ConfigError, match="humidity"):  # no humidity, no estimate: refused
+        case_problem(f"{case}+energy_balance_pm_window")
+    case.write_text(case.read_text().replace("[data]\n", "[data]\ndew_below_tmin = 0.0\n", 1))
+    v = refit(case_problem(f"{case}+energy_balance_pm_window")[0]).values()
+    assert v["eb_rs"] == pytest.approx(150.0, rel=0.2)
+    assert v["kappa"] == pytest.approx(twin.spec.kappa, rel=0.1)
+    assert v["C"] == pytest.approx(twin.spec.C, rel=0.25)
+    pt = refit(case_problem(f"{case}+energy_balance_window")[0]).values()
+    assert abs(pt["C"] / twin.spec.C - 1) > 0.5
