@@ -6,7 +6,7 @@ surface temperature is its skin (:mod:`pavement_mcmc.physics.skin`): the top nod
 surface energy balance acts on the soil, or the canopy skin above a ``surface_layer``
 (:math:`T_0 + R\,G`), so
 
-.. math:: T_\mathrm{IR}(t) = f\,T_k(t) + (1 - f)\,T_a(t) + \delta + e(t),\qquad
+.. math:: T_\mathrm{IR}(t) = f\,T_k(t) + (1 - f)\,T_b(t) + \delta + e(t),\qquad
           e \sim N(0, \sigma_\mathrm{IR}^2),
 
 with :math:`\delta` = ``ir_offset`` (degC), a nuisance parameter with a Gaussian prior of sd
@@ -14,10 +14,20 @@ with :math:`\delta` = ``ir_offset`` (degC), a nuisance parameter with a Gaussian
 temperature by about :math:`-T\,\Delta\varepsilon / 4\varepsilon` (0.7 K per 0.01 near 290 K),
 and a canopy's skin is not the soil's top. Its value and bounds can be set in
 ``[parameters.ir_offset]`` (``vary = false`` fixes it). :math:`f` = ``ir_view`` is the fraction
-of the thermometer's footprint that is the modelled surface (bare soil between desert shrubs,
-a sparse crop): the rest (leaves near air temperature) reads :math:`T_a`. It is fixed at 1
-(a closed surface) unless ``[parameters.ir_view] vary = true``; prior N(1, 0.3) on 0.1-1.5
-(above 1: an emissivity error that scales the contrast with the air).
+of the thermometer's footprint that is the modelled skin, :math:`T_b` what the rest reads:
+
+- under a layer over the soil (``canopy``, ``surface_layer``) the gaps between the leaves show
+  the **soil surface below the layer**, :math:`T_b = T_0`: the radiometric temperature of a
+  partial canopy is a composite of canopy and soil, weighted by the canopy's cover as the
+  thermometer sees it (the two-source view of Norman, Kustas & Humes 1995, *Agric. For.
+  Meteorol.* 77, 263-293, linearised: they weight :math:`T^4`, which differs by 0.12 K for canopy
+  and soil 10 K apart near 295 K, an equal share each);
+- without a layer the modelled surface is the soil (bare soil between desert shrubs, a sparse
+  crop), and the rest (leaves near air temperature) reads :math:`T_b = T_a`.
+
+It is fixed at 1 (the footprint all skin) unless ``[parameters.ir_view] vary = true``; prior
+N(1, 0.3) on 0.1-1.5 (above 1: an emissivity error that scales the contrast with
+:math:`T_b`).
 
 Column convention: ``T_surf_IR`` in the case CSV or in the ``[data] extras`` CSV
 (:mod:`pavement_mcmc.data.extras`); switched on by ``[data] ir_sigma`` (the sd of one reading,
@@ -71,14 +81,14 @@ class SurfaceIR(Observation):
                           description="infrared surface temperature minus the model's surface"),
                 Parameter("ir_view", 1.0, 0.1, 1.5, prior=TruncatedNormal(1.0, 0.3, 0.1, 1.5),
                           unit="-", vary=False,
-                          description="fraction of the IR footprint that is the modelled surface "
-                                      "(the rest at air temperature)")]
+                          description="fraction of the IR footprint that is the modelled skin "
+                                      "(the rest: the soil under a layer, else the air)")]
 
     def predict(self, model, T_nodes, coeffs, p):
         T = skin_temperature(model, T_nodes, coeffs, p)
         f = np.asarray(p["ir_view"], float)[:, None]
-        Ta = model.forcing.T_air[None, :]
-        return (Ta + f * (T - Ta))[..., None] + np.asarray(p["ir_offset"], float)[:, None, None]
+        Tb = _background(model, T_nodes)[0]
+        return (Tb + f * (T - Tb))[..., None] + np.asarray(p["ir_offset"], float)[:, None, None]
 
     def whiten(self, r):
         return r.reshape(*r.shape[:-2], -1) / self.sigma
@@ -98,6 +108,19 @@ class SurfaceIR(Observation):
         T = skin_temperature(model, T_nodes, coeffs, p)
         g_top, direct = skin_vjp(model, f * g_skin, T_nodes, coeffs, p)
         gT[..., 0] += g_top
+        Tb, node = _background(model, T_nodes)
+        if node is not None:  # the soil surface under the layer
+            gT[..., node] += (1.0 - f) * g_skin
         direct["ir_offset"] = np.sum(g, axis=1)
-        direct["ir_view"] = np.sum(g_skin * (T - model.forcing.T_air[None, :]), axis=1)
+        direct["ir_view"] = np.sum(g_skin * (T - Tb), axis=1)
         return gT, direct
+
+
+def _background(model, T_nodes: np.ndarray) -> tuple[np.ndarray, int | None]:
+    """What the footprint's part outside the skin reads (n_sets, n_obs), degC, and the node it
+    is (None: the air): under a layer over the soil, the soil surface below it (the node under
+    a skin node, else the top node); without one, the air temperature (module doc)."""
+    if any(e.over_soil for e in model.extensions):
+        node = 1 if model.grid.soil_top else 0
+        return T_nodes[..., node], node
+    return np.broadcast_to(model.forcing.T_air[None, :], T_nodes.shape[:-1]), None

@@ -77,3 +77,15 @@ def tower_columns(closure: float, H: np.ndarray, LE: np.ndarray,
         n1, n2 = rng.standard_normal((2, flux.size))
         out[name] = closure * np.asarray(flux, float) * (1.0 + 0.1 * n1) + 5.0 * n2
     return out
+
+
+def ir_column(spec, z: np.ndarray, profiles: np.ndarray, soil_top: float,
+              rng: np.random.Generator) -> np.ndarray:
+    """An infrared thermometer's reading (n_rows,), degC: ``spec.ir_view`` of the column's top
+    (the balance's surface) and the rest of the soil surface at ``soil_top`` (below a thatch:
+    the gaps between the leaves), + ``spec.ir_offset`` + ``spec.ir_noise`` N (see
+    ``SyntheticSpec.ir_view``)."""
+    top = profiles[:, 0]
+    soil = np.array([np.interp(soil_top, z, prof) for prof in profiles])
+    noise = rng.standard_normal(top.size)
+    return spec.ir_view * top + (1.0 - spec.ir_view) * soil + spec.ir_offset + spec.ir_noise * noise

@@ -12,6 +12,7 @@ from .effects import DEFAULT_RAIN, resolve_effects
 from .forcing import Clock, Forcing, forcing_at_levels, ground_sinks
 from .ground import build_ground
 from .outputs import (
+    ir_column,
     plate_columns,
     recorded_forcing,
     recorded_temperatures,
@@ -90,6 +91,12 @@ class SyntheticSpec:
         and latent heat (evapotranspiration and evaporation), each x (1 + 0.1 N1) + 5 N2 W m-2
         (N1, N2 from their own random stream): a tower that misses part of the turbulent flux,
         as real ones do (their H + LE typically close 70-90 % of R_n - G).
+    ir_view : share of an infrared thermometer's footprint that is the surface the balance acts
+        on (0: no thermometer): a ``T_surf_IR`` column (degC) reads that share of the column's
+        top and the rest of the soil surface (under a ``surface_layer``: its gaps show the
+        soil; without one both are the top), + ``ir_offset`` + ``ir_noise`` N (its own random
+        stream; :func:`~.outputs.ir_column`).
+    ir_offset, ir_noise : the thermometer's offset and noise sd, degC.
     """
 
     kappa: float = 1.31
@@ -123,6 +130,9 @@ class SyntheticSpec:
     tower: float = 0.0
     vapour_kPa: float = 0.0
     surface_resistance: float | None = None
+    ir_view: float = 0.0
+    ir_offset: float = 1.0
+    ir_noise: float = 0.3
 
 
 @dataclass(frozen=True)
@@ -310,6 +320,9 @@ def simulate(spec: SyntheticSpec) -> tuple[dict[str, np.ndarray], Truth]:
         H = fo.h[lv] * (profiles[:, 0] - fo.T_air[lv])
         columns.update(tower_columns(spec.tower, H, run.latent[lv] + q_sink[lv],
                                      np.random.default_rng(seq.spawn(1)[0])))
+    if spec.ir_view > 0:  # its own random stream too
+        columns["T_surf_IR"] = ir_column(spec, z, profiles, ground.soil_top,
+                                         np.random.default_rng(seq.spawn(1)[0]))
 
     truth = Truth(
         kappa=spec.kappa, C=spec.C, sigma=spec.sigma, h_obs=fo.h[lv], effects=effects, t=t_rows,

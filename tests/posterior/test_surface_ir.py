@@ -83,6 +83,39 @@ def test_ir_gradient_through_the_canopy_skin(tmp_path, model):
     np.testing.assert_allclose(g[:, j], ref[:, j], rtol=1e-5)
 
 
+@pytest.mark.parametrize("layer", ["canopy", "surface_layer"])
+def test_ir_gradient_with_the_soil_seen_between_the_leaves(tmp_path, layer):
+    """Under a layer the footprint's part outside the skin reads the soil surface below it
+    (node 1 under canopy's skin node, the top node under surface_layer): the adjoint through
+    that node and ir_view equals central differences of whole solves, and the view is the
+    skin's share between the soil and the skin."""
+    model = (f'extensions = ["energy_balance", "{layer}"]\n'
+             '[parameters.ir_view]\nvary = true\nvalue = 0.7\n')
+    pb = build_problem(load_case(_twin(tmp_path, model=model)))
+    post = pb.posterior
+    rng = np.random.default_rng(4)
+    th = np.repeat(pb.space.initial()[None], 2, 0) * (1 + 0.02 * rng.standard_normal((2, len(pb.space.free))))
+    if layer == "surface_layer":  # its start is the null, no layer: give it one
+        th[:, pb.space.free.index("R_surface")] = [0.1, 0.4]
+    ll, g, _ = post.loglik_and_grad(th, "adjoint")
+    ref = _central(post, th)
+    np.testing.assert_allclose(g, ref, rtol=0, atol=1e-6 * np.abs(ref).max())
+    j = pb.space.free.index("ir_view")
+    assert abs(ref[0, j]) > 1.0
+    np.testing.assert_allclose(g[:, j], ref[:, j], rtol=1e-5)
+    p = pb.space.expand(th[:1])
+    model_ = pb.model
+    coeffs = model_.coefficients(p)
+    from pavement_mcmc.physics.skin import skin_temperature
+    from pavement_mcmc.solver import solve
+    T_nodes = solve(model_.grid, model_.forcing, coeffs, scheme=model_.scheme)
+    ir = post.stream("surface_ir").predict(model_, T_nodes, coeffs, p)[0, :, 0] - p["ir_offset"][0]
+    skin, soil = skin_temperature(model_, T_nodes, coeffs, p)[0], T_nodes[0, :, 1 if layer == "canopy" else 0]
+    f = p["ir_view"][0]
+    np.testing.assert_allclose(ir, f * skin + (1 - f) * soil, rtol=1e-12)
+    assert np.max(np.abs(skin - soil)) > 0.5  # the layer separates them: the test can fail
+
+
 def test_the_ir_parameters_can_be_set_in_a_case_whose_grid_is_chosen(tmp_path):
     """A bottom deeper than 10 cm makes the auto grid compare predictions at the case's values,
     which configured the model's parameters without the stream's: ``[parameters.ir_view]``, as
@@ -124,3 +157,20 @@ def test_the_forecasts_training_refit_keeps_the_ir_stream(tmp_path):
     assert ir.data.shape[0] == n_train
     lap = find_map(tr.posterior)
     assert dict(zip(tr.space.free, lap.theta, strict=True))["ir_offset"] == pytest.approx(OFFSET, abs=0.2)
+
+
+def test_a_partial_canopy_view_is_recovered_and_ignoring_it_inflates_the_soil(tmp_path):
+    """A grass-like twin whose thermometer sees 60 % thatch and 40 % soil between the leaves
+    (``SyntheticSpec.ir_view``; the simulator's thatch is a resolved layer with heat capacity,
+    the inversion's a lumped skin node): with ``ir_view`` free its MAP finds the view and the
+    soil; held at 1 (the footprint all canopy) the soil's kappa and C come out far too high."""
+    from pavement_mcmc.criticism import refit
+    from pavement_mcmc.synthetic.ir_view import HELD, ir_view_case
+
+    toml, spec = ir_view_case(tmp_path, 0.6, 1)
+    v = refit(build_problem(load_case(toml))).values()
+    assert v["ir_view"] == pytest.approx(0.6, abs=0.08)
+    assert v["kappa"] == pytest.approx(spec.kappa, rel=0.25)
+    assert v["C"] == pytest.approx(spec.C, rel=0.25)
+    held = refit(build_problem(load_case(toml, HELD))).values()
+    assert held["kappa"] > 1.4 * spec.kappa and held["C"] > 1.4 * spec.C
