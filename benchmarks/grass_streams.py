@@ -1,12 +1,13 @@
 """Which observation stream holds the grass window's effusivity above a loam's
-(docs/VALIDATION.md section 5): MAP fits of runs/grass_energy.toml with kappa and C free and
+(docs/VALIDATION.md section 5): MAP fits of runs/grass_energy.toml, its infrared view held at 1
+(the footprint all canopy, as before the view was free; ``view`` rows free it), with kappa and C free and
 held at the measured-top fit's loam values (1.41 W m-1 K-1, 2.47 MJ m-3 K-1), with every
 stream, without the plate, and without the plate and the IR (its sd 100 degC: scored, not
 fitted); then the stream weights re-estimated (each stream's sd set to its RMSE and refitted,
 six rounds: the profile of a free noise scale per stream). With ``laws``, instead: the
 Priestley-Taylor and the Penman-Monteith law (on the dew point estimated from the daily minimum
 air temperature, ``[data] dew_below_tmin = 0``: the record has no humidity) with the plate's
-factor free and held at 1 (its calibration trusted).
+factor free and held at 1 (its calibration trusted), and each with the view free.
 
     PYTHONPATH=. python benchmarks/grass_streams.py [laws]
 """
@@ -33,10 +34,13 @@ NO_PLATE = {"data": {"plates": False}}
 NO_IR = {"data": {"ir_sigma": 100.0}}
 PM_TMIN = {"model": {"extensions": ["energy_balance_pm", "canopy"]}, "data": {"dew_below_tmin": 0.0}}
 PLATE_1 = {"parameters": {"plate_G5cm": {"value": 1.0, "vary": False}}}
+VIEW_1 = {"parameters": {"ir_view": {"value": 1.0, "vary": False}}}
 
 
 def fit(overrides: dict) -> tuple[dict, dict, float, dict]:
-    pb = build_problem(load_case(TOML, overrides or None))
+    """MAP of the case with ``overrides`` (``"view": True`` frees the infrared view)."""
+    ov = {k: x for k, x in (overrides or {}).items() if k != "view"}
+    pb = build_problem(load_case(TOML, ov if (overrides or {}).get("view") else merge_overrides(VIEW_1, ov)))
     f = refit(pb, max_nfev=200)
     v = f.values()
     p = {k: np.array([x]) for k, x in {**pb.space.value_dict(), **v}.items()}
@@ -57,10 +61,13 @@ def line(label: str, v: dict, blobs: dict, objective: float, mid: dict) -> str:
 def laws() -> None:
     for label, ov in (("Priestley-Taylor, plate free", {}), ("Priestley-Taylor, plate 1", PLATE_1),
                       ("Penman-Monteith on T_min, plate free", PM_TMIN),
-                      ("Penman-Monteith on T_min, plate 1", merge_overrides(PM_TMIN, PLATE_1))):
+                      ("Penman-Monteith on T_min, plate 1", merge_overrides(PM_TMIN, PLATE_1)),
+                      ("Priestley-Taylor, view free", {"view": True}),
+                      ("Penman-Monteith on T_min, view free", {**PM_TMIN, "view": True})):
         v, blobs, objective, mid = fit(ov)
-        print(line(label, v, blobs, objective, mid) + f", kappa/C {v['kappa'] / v['C'] * 1e6:.3f} "
-              f"mm2 s-1, effusivity {np.sqrt(v['kappa'] * v['C']):.0f} J m-2 K-1 s-1/2", flush=True)
+        print(line(label, v, blobs, objective, mid) + f", view {v.get('ir_view', 1.0):.3f}, kappa/C "
+              f"{v['kappa'] / v['C'] * 1e6:.3f} mm2 s-1, effusivity "
+              f"{np.sqrt(v['kappa'] * v['C']):.0f} J m-2 K-1 s-1/2", flush=True)
 
 
 def main() -> None:
