@@ -64,7 +64,7 @@ from typing import Any
 
 from .humidity import with_dew_from_tmin
 from .measurements import Measurements
-from .reader import read_csv_case, record_stamps
+from .reader import read_csv_case, record_air_temperature, record_stamps
 from .schema import GRID_DEFAULTS, SAMPLER_DEFAULTS, ConfigError, _check_h, _validate
 from .times import format_time
 
@@ -201,7 +201,9 @@ def load_case(
             forcing_optional=raw.get("model", {}).get("top") == "measured",
         )
         if "dew_below_tmin" in data:  # FAO-56: the dew point from the daily minimum
-            meas = with_dew_from_tmin(meas, data["dew_below_tmin"])
+            meas = with_dew_from_tmin(meas, data["dew_below_tmin"], *record_air_temperature(
+                csv_path, data.get("columns"), data.get("preset"),
+                {k: data[k] for k in PRESET_KEYS if k in data}))
     except ValueError as exc:
         exc.add_note(f"while loading the [data] section of {where}")
         raise

@@ -8,7 +8,10 @@ lies 2-4 K below the minimum. So
 .. math:: T_d(t) = \min_{|t' - t| \le 12\,\mathrm{h}} T_a(t') - \Delta,
 
 the minimum over the 24 h centred on each time (no calendar day, so no time zone is needed),
-:math:`\Delta` = ``[data] dew_below_tmin`` (K, >= 0). The estimate becomes the record's
+:math:`\Delta` = ``[data] dew_below_tmin`` (K, >= 0), taken over the whole record, so a time's
+dew point does not depend on the window it is read in (a window, a rolling window a day
+later, a forecast's longer one); only at the record's own ends does the 24 h shrink to what
+the record holds. The estimate becomes the record's
 ``T_dew`` extra (degC), which the Penman–Monteith energy balance
 (:mod:`pavement_mcmc.physics.catalogue.penman`) reads when there is no ``RH``. It is an
 estimate: it misses humid days after dry nights and dry air advected by day; where the record
@@ -23,6 +26,7 @@ from types import MappingProxyType
 import numpy as np
 
 from .checks import DataError
+from .times import parse_time
 
 __all__ = ["HALF_WINDOW", "dew_from_tmin", "with_dew_from_tmin"]
 
@@ -40,15 +44,22 @@ def dew_from_tmin(t: np.ndarray, T_air: np.ndarray, below: float = 0.0) -> np.nd
     return np.array([np.nanmin(T[a:b]) for a, b in zip(lo, hi, strict=True)]) - float(below)
 
 
-def with_dew_from_tmin(meas, below: float):
-    """``meas`` with a ``T_dew`` extra estimated by :func:`dew_from_tmin` (a DataError if the
-    record measures its humidity, or has no air temperature at some time)."""
+def with_dew_from_tmin(meas, below: float, stamps: np.ndarray, T_air: np.ndarray):
+    """``meas`` with a ``T_dew`` extra estimated by :func:`dew_from_tmin` over the whole
+    record (``stamps``, s since the epoch, and ``T_air`` of every row:
+    :func:`~.reader.record_air_temperature`) at the window's times (a DataError if the record
+    measures its humidity, or the window lacks an air temperature)."""
     have = [k for k in ("RH", "T_dew") if k in meas.extras]
     if have:
         raise DataError(f"{meas.source}: dew_below_tmin estimates the humidity, but the record "
                         f"measures it ({', '.join(have)}): drop dew_below_tmin to use it")
     if not np.all(np.isfinite(meas.T_air)):
         raise DataError(f"{meas.source}: dew_below_tmin needs the air temperature at every time")
-    dew = dew_from_tmin(meas.t, meas.T_air, below)
+    start = parse_time(meas.time0).timestamp()
+    rows = np.searchsorted(stamps, start + meas.t - 0.5)
+    if np.any(rows >= stamps.size) or np.any(np.abs(stamps[np.minimum(rows, stamps.size - 1)]
+                                                 - (start + meas.t)) > 0.5):
+        raise DataError(f"{meas.source}: the window's times are not rows of the record")
+    dew = dew_from_tmin(stamps - stamps[0], T_air, below)[rows]
     dew.flags.writeable = False
     return replace(meas, extras=MappingProxyType({**meas.extras, "T_dew": dew}))

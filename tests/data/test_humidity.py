@@ -51,9 +51,27 @@ def test_a_case_estimates_its_dew_point_and_the_law_reads_it(tmp_path):
     assert "eb_rs" in names
 
 
+def test_the_dew_point_does_not_depend_on_the_window(tmp_path):
+    """A time's dew point is the record's 24 h minimum around it, whichever window reads it (it
+    was the window's: 15 of 49 rows up to 3.6 K off between a day's window and two days')."""
+    case = _dry_twin(tmp_path)
+    whole = load_case(case).measurements
+    for window in ([0, 24], [0, 48], [12, 36], [20, 47.5]):
+        m = load_case(case, {"data": {"window_hours": window}}).measurements
+        first = int(round(window[0] * 2))  # 30 min rows
+        np.testing.assert_allclose(m.extras["T_dew"], whole.extras["T_dew"][first:first + m.n_obs])
+    np.testing.assert_allclose(whole.extras["T_dew"], dew_from_tmin(whole.t, whole.T_air))
+
+
 def test_a_measured_humidity_is_not_replaced_by_the_estimate(tmp_path):
     with pytest.raises(DataError, match="measures it .RH."):
         load_case(_dry_twin(tmp_path, spec={"vapour_kPa": 1.0}))
+    case = _dry_twin(tmp_path / "dew")
+    csv = case.parent / "measurements.csv"
+    lines = csv.read_text().splitlines()
+    csv.write_text("\n".join([lines[0] + ",T_dew"] + [r + ",5.0" for r in lines[1:]]) + "\n")
+    with pytest.raises(DataError, match="measures it .T_dew."):
+        load_case(case)
     with pytest.raises(ConfigError, match="dew_below_tmin"):
         load_case(_dry_twin(tmp_path, extra="dew_below_tmin = -2.0\n"))
 
