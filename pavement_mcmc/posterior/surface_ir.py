@@ -13,19 +13,28 @@ with :math:`\delta` = ``ir_offset`` (degC), a nuisance parameter with a Gaussian
 :data:`OFFSET_SD`: an emissivity error :math:`\Delta\varepsilon` shifts a radiometric
 temperature by about :math:`-T\,\Delta\varepsilon / 4\varepsilon` (0.7 K per 0.01 near 290 K),
 and a canopy's skin is not the soil's top. Its value and bounds can be set in
-``[parameters.ir_offset]`` (``vary = false`` fixes it). :math:`f` = ``ir_view`` is the fraction
-of the thermometer's footprint that is the modelled skin, :math:`T_b` what the rest reads:
+``[parameters.ir_offset]`` (``vary = false`` fixes it). :math:`f` = ``ir_view`` is the weight
+of the modelled skin in the reading, :math:`T_b` what the rest of it reads:
 
-- under a layer over the soil (``canopy``, ``surface_layer``) the gaps between the leaves show
-  the **soil surface below the layer**, :math:`T_b = T_0`: the radiometric temperature of a
-  partial canopy is a composite of canopy and soil, weighted by the canopy's cover as the
-  thermometer sees it (the two-source view of Norman, Kustas & Humes 1995, *Agric. For.
-  Meteorol.* 77, 263-293, linearised: they weight :math:`T^4`, which differs by 0.12 K for canopy
-  and soil 10 K apart near 295 K, an equal share each);
+- under a layer over the soil (``canopy``, ``surface_layer``), the soil surface below the
+  layer, :math:`T_b = T_0`: a radiometer looks down into a sward or thatch, and the deeper
+  leaves, stems and litter it sees sit near the soil's temperature, far from the sunlit top's.
+  :math:`f` is then a weight, not the share of the view stopped in the layer: on twins whose
+  thermometer looks into a resolved thatch (Beer's law, radiances averaged; 60 % and 80 % of
+  the view stopped in it) the MAP weighs the skin 0.35-0.37 and 0.51-0.54 and finds kappa and C
+  within 15 %, where held at 1 they come out 1.8-2.3 times the truth
+  (``benchmarks/ir_view_twins.py``, docs/VALIDATION.md section 5). It does not describe a sparse
+  cover with sunlit bare gaps (each with its own energy balance): on twins with 40 % bare
+  patches the weight stays at 0.91-0.99, and kappa and C hold within 20 % free or at 1. It is
+  linear in the temperatures, where radiances add as :math:`T^4`: 0.1 K for a canopy and soil
+  10 K apart at equal weights, 0.4 K at 20 K apart and :math:`f` 0.74 (near the Göttingen
+  grass's midday, against its sd of 0.5). Over ``surface_layer`` the reading is
+  :math:`T_0 + f R G`: the IR alone weighs only :math:`f R`, the sensors' damping sets
+  :math:`R`.
 - without a layer the modelled surface is the soil (bare soil between desert shrubs, a sparse
   crop), and the rest (leaves near air temperature) reads :math:`T_b = T_a`.
 
-It is fixed at 1 (the footprint all skin) unless ``[parameters.ir_view] vary = true``; prior
+It is fixed at 1 (the reading all skin) unless ``[parameters.ir_view] vary = true``; prior
 N(1, 0.3) on 0.1-1.5 (above 1: an emissivity error that scales the contrast with
 :math:`T_b`).
 
@@ -43,12 +52,14 @@ from ..parameters.priors import TruncatedNormal
 from ..physics.skin import skin_temperature, skin_vjp
 from .observations import Observation
 
-__all__ = ["COLUMN", "OFFSET_SD", "SurfaceIR"]
+__all__ = ["COLUMN", "OFFSET_SD", "PARAMETER_NAMES", "SurfaceIR"]
 
 #: the column of the stream (:data:`pavement_mcmc.data.extras.EXTRA_ROLES`)
 COLUMN = "T_surf_IR"
 #: prior sd of the offset, degC
 OFFSET_SD = 2.0
+#: the stream's own parameters (a case may set them in ``[parameters]``)
+PARAMETER_NAMES = ("ir_offset", "ir_view")
 
 
 class SurfaceIR(Observation):
@@ -81,8 +92,8 @@ class SurfaceIR(Observation):
                           description="infrared surface temperature minus the model's surface"),
                 Parameter("ir_view", 1.0, 0.1, 1.5, prior=TruncatedNormal(1.0, 0.3, 0.1, 1.5),
                           unit="-", vary=False,
-                          description="fraction of the IR footprint that is the modelled skin "
-                                      "(the rest: the soil under a layer, else the air)")]
+                          description="weight of the modelled skin in the IR reading (the rest: "
+                                      "the soil under a layer, else the air)")]
 
     def predict(self, model, T_nodes, coeffs, p):
         T = skin_temperature(model, T_nodes, coeffs, p)

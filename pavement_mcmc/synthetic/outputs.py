@@ -81,11 +81,21 @@ def tower_columns(closure: float, H: np.ndarray, LE: np.ndarray,
 
 def ir_column(spec, z: np.ndarray, profiles: np.ndarray, soil_top: float,
               rng: np.random.Generator) -> np.ndarray:
-    """An infrared thermometer's reading (n_rows,), degC: ``spec.ir_view`` of the column's top
-    (the balance's surface) and the rest of the soil surface at ``soil_top`` (below a thatch:
-    the gaps between the leaves), + ``spec.ir_offset`` + ``spec.ir_noise`` N (see
-    ``SyntheticSpec.ir_view``)."""
-    top = profiles[:, 0]
-    soil = np.array([np.interp(soil_top, z, prof) for prof in profiles])
-    noise = rng.standard_normal(top.size)
-    return spec.ir_view * top + (1.0 - spec.ir_view) * soil + spec.ir_offset + spec.ir_noise * noise
+    """An infrared thermometer's reading (n_rows,), degC, looking down into a porous layer
+    (see ``SyntheticSpec.ir_view``): the share of its view stopped between depths ``s`` and
+    ``s + ds`` of the layer is ``lam exp(-lam s) ds``, with ``lam`` such that ``spec.ir_view``
+    is stopped in the layer and the rest reaches the soil surface at ``soil_top``; radiances
+    (T^4, K) are averaged, + ``spec.ir_offset`` + ``spec.ir_noise`` N. Without a layer, or
+    with a view of 1, it reads the column's top. Not the inversion's form (a linear share of
+    one lumped skin node and the soil surface)."""
+    f = float(spec.ir_view)
+    if soil_top > 0 and f < 1:
+        lam = -np.log(1.0 - f) / soil_top
+        zz = np.concatenate([z[z < soil_top], [soil_top]])
+        T = np.array([np.interp(zz, z, prof) for prof in profiles]) + 273.15
+        w = np.exp(-lam * zz[:-1]) - np.exp(-lam * zz[1:])  # stopped in each cell
+        R = (0.5 * (T[:, :-1] ** 4 + T[:, 1:] ** 4)) @ w + (1.0 - f) * T[:, -1] ** 4
+        reading = R ** 0.25 - 273.15
+    else:
+        reading = profiles[:, 0]
+    return reading + spec.ir_offset + spec.ir_noise * rng.standard_normal(reading.size)

@@ -91,11 +91,11 @@ class SyntheticSpec:
         and latent heat (evapotranspiration and evaporation), each x (1 + 0.1 N1) + 5 N2 W m-2
         (N1, N2 from their own random stream): a tower that misses part of the turbulent flux,
         as real ones do (their H + LE typically close 70-90 % of R_n - G).
-    ir_view : share of an infrared thermometer's footprint that is the surface the balance acts
-        on (0: no thermometer): a ``T_surf_IR`` column (degC) reads that share of the column's
-        top and the rest of the soil surface (under a ``surface_layer``: its gaps show the
-        soil; without one both are the top), + ``ir_offset`` + ``ir_noise`` N (its own random
-        stream; :func:`~.outputs.ir_column`).
+    ir_view : share of an infrared thermometer's view stopped in a ``surface_layer`` (0: no
+        thermometer): it looks down into the porous layer, each depth's radiance weighted by
+        where the view is stopped (Beer's law), the rest of the view reaching the soil
+        surface below (:func:`~.outputs.ir_column`); without a layer, or at 1, it reads the
+        column's top. A ``T_surf_IR`` column (degC), from its own random stream.
     ir_offset, ir_noise : the thermometer's offset and noise sd, degC.
     """
 
@@ -321,6 +321,9 @@ def simulate(spec: SyntheticSpec) -> tuple[dict[str, np.ndarray], Truth]:
         columns.update(tower_columns(spec.tower, H, run.latent[lv] + q_sink[lv],
                                      np.random.default_rng(seq.spawn(1)[0])))
     if spec.ir_view > 0:  # its own random stream too
+        if spec.ir_view > 1 or (spec.ir_view < 1 and not ground.soil_top):
+            raise ValueError(f"ir_view must be in (0, 1], and below 1 only over a surface_layer "
+                             f"(the share of the view it stops), got {spec.ir_view}")
         columns["T_surf_IR"] = ir_column(spec, z, profiles, ground.soil_top,
                                          np.random.default_rng(seq.spawn(1)[0]))
 
