@@ -31,6 +31,7 @@ import numpy as np
 from ..data import load_case, merge_overrides
 from ..physics.materials import check_values, declared_material
 from ..posterior import build_problem
+from ..posterior.surface_ir import PARAMETER_NAMES as IR_PARAMETERS
 from .fitting import refit
 from .ground import GROUND_HOOKS, where_acts
 from .tower import TOL, tower_ground_share
@@ -156,6 +157,8 @@ def _top_fit(problem) -> dict | None:
         return None
     raw = copy.deepcopy(top_cfg.raw)
     raw["data"].pop("ir_sigma", None)  # the IR sees the surface: none under a measured top
+    for name in IR_PARAMETERS:  # nor its parameters, which a case may set
+        raw.get("parameters", {}).pop(name, None)
     top_cfg = replace(top_cfg, raw=raw)
     exts = [e for e in problem.model.extensions if where_acts(e) in GROUND_HOOKS]
     pb = build_problem(top_cfg, extensions=exts)
@@ -195,10 +198,15 @@ def _verdict(eb: EnergyBalance) -> str:
                 f"{100 * abs(off):.0f} %) but " if off is not None and abs(off) <= AGREE else
                 "" if off is None else
                 f"kappa/C also differs from the measured-top fit's by {100 * abs(off):.0f} % and ")
-        return ("The surface boundary is wrong: " + cond + "; ".join(why)
-                + ". The energy the model pushes into the ground is wrong: the surface energy "
-                "balance lacks a sink or a resistance (evapotranspiration, the partition of the "
-                "net radiation, a surface layer of grass, thatch or mulch).")
+        too_little = (plate_off and not (alarms or h_alarm or kappa_off or tower_off)
+                      and all(eb.plates[lab]["slope"] < 1.0 for lab in plate_off))
+        return ("The surface boundary is wrong: " + cond + "; ".join(why) + (
+            ". The model takes less heat into the ground than the plates read: the plates' depth "
+            "or calibration, or a surface balance that lets too little in (a sink or a surface "
+            "resistance too strong, a heat source it misses)." if too_little else
+            ". The energy the model pushes into the ground is wrong: the surface energy balance "
+            "lacks a sink or a resistance (evapotranspiration, the partition of the net "
+            "radiation, a surface layer of grass, thatch or mulch)."))
     if off is not None and abs(off) > AGREE:
         return ("Conduction itself disagrees: kappa/C differs from the measured-top fit's by "
                 f"{100 * abs(off):.0f} % (layers, sensor depths or a temperature-dependent "

@@ -59,7 +59,9 @@ def test_a_clean_field_twin_is_consistent(tmp_path):
 def test_the_measured_top_fit_of_a_case_that_observes_the_infrared_surface(tmp_path):
     """A case with ``ir_sigma`` (the IR surface temperature observed): the energy check's
     measured-top fit has no surface, so it leaves the IR out; it raised "T_surf_IR needs the
-    surface energy balance at the top" and `diagnose runs/grass_energy.toml` stopped there."""
+    surface energy balance at the top" and `diagnose runs/grass_energy.toml` stopped there; with
+    the stream's parameter set in ``[parameters]`` (``ir_view``, as the case sets it) it
+    refused "unknown parameter 'ir_view'"."""
     twin = get_twin("field-none-s204")
     path = write_twin(twin, tmp_path / "ir")
     rows = (tmp_path / "ir" / "measurements.csv").read_text().splitlines()
@@ -67,7 +69,8 @@ def test_the_measured_top_fit_of_a_case_that_observes_the_infrared_surface(tmp_p
     (tmp_path / "ir" / "extras.csv").write_text(
         "time,T_surf_IR\n" + "".join(f"{t},{15.0 + 0.01 * i:.2f}\n" for i, t in enumerate(time)))
     text = path.read_text()  # in the file, as runs/grass_energy.toml has it (not an override)
-    path.write_text(text.replace("[data]\n", '[data]\nextras = "extras.csv"\nir_sigma = 0.5\n', 1))
+    path.write_text(text.replace("[data]\n", '[data]\nextras = "extras.csv"\nir_sigma = 0.5\n', 1)
+                    + "\n[parameters.ir_view]\nvary = true\n")  # the stream's own parameter
     cfg = load_case(path, FAST)
     pb = build_problem(cfg)
     assert pb.posterior.stream("surface_ir") is not None
@@ -114,6 +117,18 @@ def test_an_impossible_h_names_the_surface_boundary():
     quiet = _eb([])
     assert not quiet.surface_wrong and "measured-top fit and the plates" not in quiet.verdict
     assert "no measured-top fit, plate or flux tower" in quiet.verdict
+
+
+def test_a_plate_that_reads_more_than_the_model_does_not_ask_for_a_sink():
+    """The model's flux at the plate half its reading (the grass with the radiometer's weight
+    free: 0.48) and nothing else wrong: the verdict said the balance "lacks a sink or a
+    resistance", the wrong way round; a plate reading less than the model still asks for one."""
+    top = {"kappa": 0.3, "C": 0.9e6, "diffusivity": 3.4e-7, "from_plate": True}  # agrees
+    low = _eb([], top=top, plates={"G5cm": {"slope": 0.48, "factor": 1.06}})
+    assert low.surface_wrong and "less heat into the ground than the plates read" in low.verdict
+    assert "lacks a sink" not in low.verdict
+    high = _eb([], top=top, plates={"G5cm": {"slope": 2.0, "factor": 0.5}})
+    assert "lacks a sink or a resistance" in high.verdict
 
 
 DESERT = Path(__file__).resolve().parents[2].parent / "shared" / "data" / "soilvue_utah" / "measurements.csv"
