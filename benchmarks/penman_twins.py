@@ -6,9 +6,10 @@ Priestley-Taylor law's on the same twins, for resistances and vapour pressures g
 command line (default: 50, 150, 400 s m-1 x 0.8, 1.4 kPa, seeds 1-3). With ``tmin`` the
 Penman-Monteith law also runs on a copy of each twin without its RH column, the dew point
 estimated from the daily minimum air temperature (``[data] dew_below_tmin = 0``, FAO-56,
-data/humidity.py): the fallback of a record without humidity, against Priestley-Taylor.
+data/humidity.py): the fallback of a record without humidity, against Priestley-Taylor;
+``tmin=K`` sets ``dew_below_tmin = K`` instead (FAO-56's 2-4 K over arid ground).
 
-    PYTHONPATH=. python benchmarks/penman_twins.py [first_seed n] [tmin]
+    PYTHONPATH=. python benchmarks/penman_twins.py [first_seed n] [tmin | tmin=K]
 """
 
 from __future__ import annotations
@@ -25,15 +26,16 @@ from pavement_mcmc.synthetic.corpus import forecast_twins, write_twin
 from pavement_mcmc.synthetic.io import drop_columns
 
 
-def without_rh(twin) -> Path:
-    """The twin written without its RH column, its dew point estimated from T_min."""
+def without_rh(twin, below: float = 0.0) -> Path:
+    """The twin written without its RH column, its dew point estimated from T_min (less
+    ``below`` K)."""
     case = write_twin(twin, Path(tempfile.mkdtemp()) / twin.name)
     drop_columns(case.parent / "measurements.csv", ("RH",))
-    case.write_text(case.read_text().replace("[data]\n", "[data]\ndew_below_tmin = 0.0\n", 1))
+    case.write_text(case.read_text().replace("[data]\n", f"[data]\ndew_below_tmin = {below}\n", 1))
     return case
 
 
-def main(first: int, n: int, tmin: bool = False) -> None:
+def main(first: int, n: int, tmin: float | None = None) -> None:
     tmp = Path(tempfile.mkdtemp())
     rows = []
     for r_s in (50.0, 150.0, 400.0):
@@ -44,8 +46,8 @@ def main(first: int, n: int, tmin: bool = False) -> None:
                 case = write_twin(twin, tmp / twin.name)
                 out = {}
                 runs = [(case, "energy_balance_pm_window"), (case, "energy_balance_window")]
-                if tmin:
-                    runs.append((without_rh(twin), "energy_balance_pm_window"))
+                if tmin is not None:
+                    runs.append((without_rh(twin, tmin), "energy_balance_pm_window"))
                 for k, (path, law) in enumerate(runs):
                     pb, _ = case_problem(f"{path}+{law}")
                     fit = refit(pb)
@@ -58,7 +60,7 @@ def main(first: int, n: int, tmin: bool = False) -> None:
                       f"r_s {100 * pm[3]:+.0f} %, kappa {100 * pm[1]:+.0f} %, C {100 * pm[2]:+.0f} % | "
                       f"PT RMSE {pt[0]:.3f}, kappa {100 * pt[1]:+.0f} %, C {100 * pt[2]:+.0f} %"
                       + (f" | PM-Tmin RMSE {out[2][0]:.3f}, r_s {100 * out[2][3]:+.0f} %, kappa "
-                         f"{100 * out[2][1]:+.0f} %, C {100 * out[2][2]:+.0f} %" if tmin else ""),
+                         f"{100 * out[2][1]:+.0f} %, C {100 * out[2][2]:+.0f} %" if tmin is not None else ""),
                       flush=True)
     pm = np.abs(np.array([r[0] for r in rows]))
     pt = np.array([r[1] for r in rows])
@@ -71,7 +73,7 @@ def main(first: int, n: int, tmin: bool = False) -> None:
           f"|C| {med_max(pm[:, 2])}; PT |kappa| {med_max(np.abs(pt[:, 1]))}, |C| "
           f"{med_max(np.abs(pt[:, 2]))}; PT RMSE / PM RMSE median {np.median(ratio):.2f} "
           f"(min {np.min(ratio):.2f})")
-    if tmin:
+    if tmin is not None:
         tm = np.abs(np.array([r[2] for r in rows]))
         print(f"PM with the dew point from T_min (no RH): |kappa| {med_max(tm[:, 1])}, |C| "
               f"{med_max(tm[:, 2])}, |r_s| {med_max(tm[:, 3])}; RMSE / PM-with-RH RMSE median "
@@ -79,5 +81,6 @@ def main(first: int, n: int, tmin: bool = False) -> None:
               f"{np.median(pt[:, 0] / tm[:, 0]):.2f}")
 
 if __name__ == "__main__":
-    args = [int(a) for a in sys.argv[1:3]]
-    main(*(args or [1, 3]), tmin="tmin" in sys.argv[1:])
+    args = [int(a) for a in sys.argv[1:] if a.isdigit()]
+    below = [float(a.partition("=")[2] or 0.0) for a in sys.argv[1:] if a.startswith("tmin")]
+    main(*(args or [1, 3]), tmin=below[0] if below else None)
