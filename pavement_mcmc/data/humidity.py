@@ -36,25 +36,26 @@ HALF_WINDOW = 12 * 3600.0
 
 def dew_from_tmin(t: np.ndarray, T_air: np.ndarray, below: float = 0.0) -> np.ndarray:
     """Dew point (n_obs,), degC: the minimum of ``T_air`` within 12 h of each time ``t`` (s),
-    less ``below`` (K). Missing air temperatures (NaN) are skipped."""
+    less ``below`` (K). Missing air temperatures (NaN) are skipped; NaN where all are."""
     t = np.asarray(t, float)
     T = np.asarray(T_air, float)
     lo = np.searchsorted(t, t - HALF_WINDOW, side="left")
     hi = np.searchsorted(t, t + HALF_WINDOW, side="right")
-    return np.array([np.nanmin(T[a:b]) for a, b in zip(lo, hi, strict=True)]) - float(below)
+    low = [T[a:b][np.isfinite(T[a:b])] for a, b in zip(lo, hi, strict=True)]
+    return np.array([x.min() if x.size else np.nan for x in low]) - float(below)
 
 
 def with_dew_from_tmin(meas, below: float, stamps: np.ndarray, T_air: np.ndarray):
     """``meas`` with a ``T_dew`` extra estimated by :func:`dew_from_tmin` over the whole
     record (``stamps``, s since the epoch, and ``T_air`` of every row:
     :func:`~.reader.record_air_temperature`) at the window's times (a DataError if the record
-    measures its humidity, or the window lacks an air temperature)."""
+    measures its humidity). Where the record has no air temperature within 12 h the dew point
+    is NaN, and the Penman–Monteith law refuses the window if it is used (a measured-top case
+    with gaps in its air temperature, which needs none, still loads)."""
     have = [k for k in ("RH", "T_dew") if k in meas.extras]
     if have:
         raise DataError(f"{meas.source}: dew_below_tmin estimates the humidity, but the record "
                         f"measures it ({', '.join(have)}): drop dew_below_tmin to use it")
-    if not np.all(np.isfinite(meas.T_air)):
-        raise DataError(f"{meas.source}: dew_below_tmin needs the air temperature at every time")
     start = parse_time(meas.time0).timestamp()
     rows = np.searchsorted(stamps, start + meas.t - 0.5)
     if np.any(rows >= stamps.size) or np.any(np.abs(stamps[np.minimum(rows, stamps.size - 1)]

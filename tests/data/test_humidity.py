@@ -4,6 +4,8 @@ where humidity is measured, and the Penman–Monteith law reading it."""
 
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 import pytest
 
@@ -31,6 +33,11 @@ def test_the_dew_point_is_the_minimum_within_twelve_hours():
     T_gap = T.copy()
     T_gap[12] = np.nan  # 06:00 of day 0, the minimum: skipped, the next-coldest row counts
     assert dew_from_tmin(t, T_gap)[12] == pytest.approx(np.nanmin(T_gap[:37]))
+    T_gap[:60] = np.nan  # no air temperature within 12 h of the first 36 rows: NaN, no warning
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        d = dew_from_tmin(t, T_gap)
+    assert np.isnan(d[:36]).all() and np.isfinite(d[36:]).all()
 
 
 def _dry_twin(tmp_path, extra: str = "dew_below_tmin = 0.0\n", spec=None):
