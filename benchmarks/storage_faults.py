@@ -3,7 +3,8 @@
 1. Disk full at 10 sizes over a Case A and a Case C fit: the command line fit runs under
    ``RLIMIT_FSIZE`` (a genuine EFBIG, SIGXFSZ ignored), must exit 2 with one error line (no
    traceback, no crash), then ``resume`` (no limit) must end with the chain, log-posterior and
-   Generator state of the uninterrupted run of the same seed.
+   Generator state of the uninterrupted run of the same seed; its file's size against the
+   uninterrupted run's shows what the failed flush left allocated.
 2. Truncation at 10 offsets and 10 single flipped bytes of the finished Case A chain file:
    ``read_run`` must refuse each (or, if the damage missed the run, read it identically), and
    ``diagnostics``, ``report``, ``diagnose``, ``compare``, ``export`` must refuse a refused file
@@ -74,10 +75,11 @@ def disk_full(out: Path) -> tuple[int, int, int]:
             r = _cli(["resume", str(run)])
             same = r.returncode == 0 and _same(read_run(run / "chain.h5"), straight)
             resumed += same
+            grown = os.path.getsize(run / "chain.h5") / size
             print(f"disk full {case} at {limit} B ({frac:.0%}): exit {p.returncode}, "
                   f"{'clean' if ok else 'NOT CLEAN'}, {kept} of {straight.n_saved} steps kept; "
-                  f"resume {'bit-identical' if same else 'DIFFERS'}\n    {errors[-1:]}",
-                  flush=True)
+                  f"resume {'bit-identical' if same else 'DIFFERS'}, file {grown:.3f} x the "
+                  f"uninterrupted run's\n    {errors[-1:]}", flush=True)
     return n, clean, resumed
 
 
