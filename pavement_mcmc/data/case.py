@@ -64,7 +64,8 @@ from typing import Any
 
 from .humidity import with_dew_from_tmin
 from .measurements import Measurements
-from .reader import read_csv_case, record_air_temperature, record_stamps
+from .reader import read_csv_case
+from .record import record_air_temperature, record_stamps
 from .schema import GRID_DEFAULTS, SAMPLER_DEFAULTS, ConfigError, _check_h, _validate
 from .times import format_time
 
@@ -203,7 +204,7 @@ def load_case(
         if "dew_below_tmin" in data:  # FAO-56: the dew point from the daily minimum
             meas = with_dew_from_tmin(meas, data["dew_below_tmin"], *record_air_temperature(
                 csv_path, data.get("columns"), data.get("preset"),
-                {k: data[k] for k in PRESET_KEYS if k in data}))
+                {k: data[k] for k in PRESET_KEYS if k in data}, extras_path))
     except ValueError as exc:
         exc.add_note(f"while loading the [data] section of {where}")
         raise
@@ -277,7 +278,7 @@ def record_times(case: str | Path) -> list[str]:
     cfg = load_case(case)
     data = cfg.data
     stamps = record_stamps(cfg.csv_path, data.get("columns"), data.get("preset"),
-                           {k: data[k] for k in PRESET_KEYS if k in data})
+                           {k: data[k] for k in PRESET_KEYS if k in data}, cfg.extras_path)
     return [format_time(float(x)) for x in stamps]
 
 

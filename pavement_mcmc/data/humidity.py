@@ -48,7 +48,7 @@ def dew_from_tmin(t: np.ndarray, T_air: np.ndarray, below: float = 0.0) -> np.nd
 def with_dew_from_tmin(meas, below: float, stamps: np.ndarray, T_air: np.ndarray):
     """``meas`` with a ``T_dew`` extra estimated by :func:`dew_from_tmin` over the whole
     record (``stamps``, s since the epoch, and ``T_air`` of every row:
-    :func:`~.reader.record_air_temperature`) at the window's times (a DataError if the record
+    :func:`~.record.record_air_temperature`) at the window's times (a DataError if the record
     measures its humidity). Where the record has no air temperature within 12 h the dew point
     is NaN, and the Penman–Monteith law refuses the window if it is used (a measured-top case
     with gaps in its air temperature, which needs none, still loads)."""

@@ -250,33 +250,6 @@ def _plate_block(plates: dict[str, np.ndarray], depth_bot: float, table: _Table,
             np.column_stack([plates[k] for k in order]))
 
 
-def record_stamps(csv_path: str | Path, columns: Mapping[str, str] | None = None,
-                  preset: str | None = None, preset_options: Mapping | None = None) -> np.ndarray:
-    """Seconds since the Unix epoch (UTC) of every row of a case file, whatever the window:
-    its time column found as :func:`read_csv_case` finds it (renamed by ``columns``, or made by
-    a flux-site ``preset`` from its local-time stamps)."""
-    table, columns, _, _ = _tables(str(csv_path), columns, None, preset, preset_options)
-    roles, _ = _resolve_columns(table, columns, ())
-    return _parse_times(table, roles["time"])
-
-
-def record_air_temperature(csv_path: str | Path, columns: Mapping[str, str] | None = None,
-                           preset: str | None = None, preset_options: Mapping | None = None
-                           ) -> tuple[np.ndarray, np.ndarray]:
-    """``(stamps, T_air)`` of every row of a case file, whatever the window: seconds since the
-    Unix epoch and the air temperature, degC (NaN where missing), found as
-    :func:`read_csv_case` finds them (for a quantity that looks beyond the window's edges:
-    :mod:`.humidity`)."""
-    table, columns, _, _ = _tables(str(csv_path), columns, None, preset, preset_options)
-    roles, _ = _resolve_columns(table, columns, ())
-    stamps = _parse_times(table, roles["time"])
-    if "T_air" not in roles:
-        raise DataError(f"{csv_path}: no air temperature column (T_air)")
-    idx = np.arange(stamps.size)
-    return stamps, _numeric_column(table, roles["T_air"], idx, stamps - stamps[0], 0, [],
-                                   keep_gaps=True)
-
-
 def _tables(path: str, columns, extras, preset, preset_options):
     """The case table (as the contract, through a preset), its renames, and the extras table
     with its renames (None, {} without one)."""

@@ -70,6 +70,41 @@ def test_the_dew_point_does_not_depend_on_the_window(tmp_path):
     np.testing.assert_allclose(whole.extras["T_dew"], dew_from_tmin(whole.t, whole.T_air))
 
 
+def test_a_junk_air_temperature_outside_the_window_is_left_out_with_a_warning(tmp_path):
+    """The running minimum reads 12 h past the window, where the case's reader checks nothing:
+    a -9999 there became the dew point (RH up to 2e9 %) and a word refused the case."""
+    case = _dry_twin(tmp_path)
+    csv = case.parent / "measurements.csv"
+    lines = csv.read_text().splitlines()
+    clean = load_case(case, {"data": {"window_hours": [24, 47.5]}}).measurements
+    for junk in ("-9999", "ERR"):
+        row = lines[45].split(",")  # 22 h: 2 h before the window
+        row[1] = junk
+        csv.write_text("\n".join(lines[:45] + [",".join(row)] + lines[46:]) + "\n")
+        with pytest.warns(UserWarning, match="1 air temperatures outside"):
+            m = load_case(case, {"data": {"window_hours": [24, 47.5]}}).measurements
+        assert np.all(m.extras["T_dew"] > -60) and np.all(humidity(m) <= 100.0 + 1e-9)
+        assert np.max(np.abs(m.extras["T_dew"] - clean.extras["T_dew"])) < 1.0
+
+
+def test_renames_of_the_extras_file_do_not_stop_the_record_readers(tmp_path):
+    """A case whose [data.columns] renames a column of its extras CSV (the desert's
+    "G_minus_SG" = "G_5cm"): the whole-record readers took the rename for the case CSV's and
+    refused it ("named in the column mapping is not in the file"), so neither dew_below_tmin
+    nor the record's times (batch, rolling) worked on it."""
+    from pavement_mcmc.data.case import record_times
+
+    case = _dry_twin(tmp_path)
+    rows = (case.parent / "measurements.csv").read_text().splitlines()
+    (case.parent / "extras.csv").write_text("time,IRraw\n" + "".join(
+        f"{r.split(',')[0]},{15.0 + 0.01 * i:.2f}\n" for i, r in enumerate(rows[1:])))
+    case.write_text(case.read_text().replace(
+        "[data]\n", '[data]\nextras = "extras.csv"\ncolumns = { IRraw = "T_surf_IR" }\n', 1))
+    m = load_case(case).measurements
+    assert "T_surf_IR" in m.extras and has_humidity(m)
+    assert len(record_times(case)) == len(rows) - 1
+
+
 def test_a_measured_humidity_is_not_replaced_by_the_estimate(tmp_path):
     with pytest.raises(DataError, match="measures it .RH."):
         load_case(_dry_twin(tmp_path, spec={"vapour_kPa": 1.0}))
