@@ -198,15 +198,20 @@ def _verdict(eb: EnergyBalance) -> str:
                 f"{100 * abs(off):.0f} %) but " if off is not None and abs(off) <= AGREE else
                 "" if off is None else
                 f"kappa/C also differs from the measured-top fit's by {100 * abs(off):.0f} % and ")
-        too_little = (plate_off and not (alarms or h_alarm or kappa_off or tower_off)
-                      and all(eb.plates[lab]["slope"] < 1.0 for lab in plate_off))
-        return ("The surface boundary is wrong: " + cond + "; ".join(why) + (
-            ". The model takes less heat into the ground than the plates read: the plates' depth "
-            "or calibration, or a surface balance that lets too little in (a sink or a surface "
-            "resistance too strong, a heat source it misses)." if too_little else
-            ". The energy the model pushes into the ground is wrong: the surface energy balance "
-            "lacks a sink or a resistance (evapotranspiration, the partition of the net "
-            "radiation, a surface layer of grass, thatch or mulch)."))
+        only_plates = plate_off and not (alarms or h_alarm or kappa_off or tower_off)
+        slopes = [eb.plates[lab]["slope"] for lab in plate_off]
+        if only_plates and all(x <= 0.0 for x in slopes):
+            end = (". The plates read against the model's flux: a plate's sign or polarity (a "
+                   "flux positive upward, or its wires swapped).")
+        elif only_plates and all(0.0 < x < 1.0 for x in slopes):
+            end = (". The model takes less heat into the ground than the plates read: the "
+                   "plates' depth or calibration, or a surface balance that lets too little in "
+                   "(a sink or a surface resistance too strong, a heat source it misses).")
+        else:
+            end = (". The energy the model pushes into the ground is wrong: the surface energy "
+                   "balance lacks a sink or a resistance (evapotranspiration, the partition of "
+                   "the net radiation, a surface layer of grass, thatch or mulch).")
+        return "The surface boundary is wrong: " + cond + "; ".join(why) + end
     if off is not None and abs(off) > AGREE:
         return ("Conduction itself disagrees: kappa/C differs from the measured-top fit's by "
                 f"{100 * abs(off):.0f} % (layers, sensor depths or a temperature-dependent "

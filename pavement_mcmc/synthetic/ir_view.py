@@ -13,8 +13,9 @@ resolved thatch with its own heat capacity (``surface_layer``: 1.5 cm, R 0.25 m2
   (``SyntheticSpec.ir_view``), + 1 degC, + N(0, 0.3 degC): a closed sward seen into its depth.
 - :func:`tiled_case`: ``view`` of its footprint is the thatch's top and the rest a *bare*
   patch of the same soil under the same weather with its own energy balance (radiances
-  averaged): a sparse cover with sunlit gaps, which the inversion's form (a share of the skin
-  and the rest the soil *under* the layer) does not describe.
+  averaged; the patch keeps the twin's latent heat, a moist bare soil): a sparse cover with
+  sunlit gaps, which the inversion's form (a share of the skin and the rest the soil *under*
+  the layer) does not describe. Its truth.json records the thatch's thermometer (view 1).
 
 The case: ``energy_balance_window`` + ``canopy``, the IR at sd 0.5 (not the thermometer's 0.3)
 with ``ir_view`` free, loose loam-like priors on kappa and C.
@@ -74,7 +75,8 @@ def tiled_case(directory: str | Path, view: float, seed: int) -> tuple[Path, Syn
     T = (view * (thatch.profiles[:, 0] + K) ** 4 + (1 - view) * (bare.profiles[:, 0] + K) ** 4)
     ir = T ** 0.25 - K + IR_OFFSET + IR_NOISE * np.random.default_rng(seed).standard_normal(T.size)
     path = directory / "measurements.csv"
-    rows = list(csv.reader(path.open(newline="")))
+    with path.open(newline="") as fh:
+        rows = list(csv.reader(fh))
     j = rows[0].index("T_surf_IR")
     for i, row in enumerate(rows[1:]):
         row[j] = f"{ir[i]:.2f}"

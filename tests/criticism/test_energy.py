@@ -129,6 +129,8 @@ def test_a_plate_that_reads_more_than_the_model_does_not_ask_for_a_sink():
     assert "lacks a sink" not in low.verdict
     high = _eb([], top=top, plates={"G5cm": {"slope": 2.0, "factor": 0.5}})
     assert "lacks a sink or a resistance" in high.verdict
+    backwards = _eb([], top=top, plates={"G5cm": {"slope": -1.0, "factor": 1.0}})
+    assert "sign or polarity" in backwards.verdict and "less heat" not in backwards.verdict
 
 
 DESERT = Path(__file__).resolve().parents[2].parent / "shared" / "data" / "soilvue_utah" / "measurements.csv"
