@@ -4,7 +4,7 @@
     nice -n 5 python benchmarks/energy_records.py [grass|desert ...]
     nice -n 5 python benchmarks/energy_records.py daily grass|desert [--out F]
     nice -n 5 python benchmarks/energy_records.py gain [grass|desert ...]
-    nice -n 5 python benchmarks/energy_records.py rolling [grass]
+    nice -n 5 python benchmarks/energy_records.py rolling [grass|desert|grass_layered|desert_layered]
 
 For each record (runs/grass*.toml: 72 h from 2020-04-05 00Z; runs/desert*.toml: 72 h from
 2025-07-11 07Z) and each model it prints the in-sample RMSE (degC and in sigma), kappa, C,
@@ -23,7 +23,8 @@ against the base model of the window, with the in-sample RMSE.
 
 ``rolling``: ``pavement-mcmc rolling`` (criticism/rolling.py) of the base and the energy-balance
 case over the record (grass: 15 windows from 2020-03-29 00Z; desert: 27 from 2025-07-01 07Z):
-72 h fitted, the next day forecast from the forcing (a per-interval h by its clock-hour mean).
+72 h fitted, the next day forecast from the forcing (a per-interval h by its clock-hour mean);
+``*_layered``: both cases with ``two_layer`` (desert_energy.toml has it already).
 
 ``daily``: the energy-balance case of a record (:data:`DAILY`) fitted by MAP on every daily
 window (the 18 grass days from 2020-03-29 00Z; the 30 July desert days, 2025-07-01 07Z ...
@@ -254,8 +255,11 @@ def daily(record: str, out: Path | None = None) -> list[dict]:
 
 #: record -> (base TOML, energy-balance TOML, first window start h, number of windows) of
 #: ``rolling``: 72 h windows a day apart, each forecasting the day after it
+#: ``*_layered``: the base given the law case's layer, so the count credits the surface alone
 ROLLING = {"grass": ("grass.toml", "grass_energy.toml", 0.0, 15),
-           "desert": ("desert.toml", "desert_energy.toml", 2928.0, 27)}
+           "desert": ("desert.toml", "desert_energy.toml", 2928.0, 27),
+           "grass_layered": ("grass.toml+two_layer", "grass_energy.toml+two_layer", 0.0, 15),
+           "desert_layered": ("desert.toml+two_layer", "desert_energy.toml", 2928.0, 27)}
 
 
 def rolling(record: str) -> None:

@@ -96,6 +96,19 @@ def test_cli_writes_the_figure_and_refuses_bad_input_before_any_fit(tmp_path, ca
         assert not bad.exists()
 
 
+def test_a_ground_effect_the_law_adds_and_the_base_lacks_is_named_in_the_verdict(tmp_path):
+    """The count credits everything the law's case adds: a layer added with the law is listed,
+    with the base that tests the surface law alone; with the layer in both, nothing is."""
+    case = _case(tmp_path, "wind_convection", 703)
+    both = rolling_forecast(case, f"{case}+{LAW}+two_layer+sensor_bias", days=1)
+    assert both.also_added == ["two_layer", "sensor_bias"]
+    assert "also adds two_layer, sensor_bias" in both.verdict()
+    assert "+two_layer+sensor_bias" in both.verdict()
+    assert both.to_dict()["also_added"] == ["two_layer", "sensor_bias"]
+    fair = rolling_forecast(f"{case}+two_layer", f"{case}+{LAW}+two_layer", days=1)
+    assert fair.also_added == [] and "also adds" not in fair.verdict()
+
+
 @pytest.mark.slow
 def test_false_naming_rate_on_fresh_clean_twins_and_power_on_wind_twins(tmp_path):
     """``make validate``: fresh seeds (the shipped null used 600-639 and 700-709), 18-day
