@@ -28,6 +28,9 @@ bias...) is credited for both, so the result lists those (:attr:`Rolling.also_ad
 verdict gives the command that tests the surface law alone: the base with the same ground
 effects. On the SoilVUE desert the energy balance with a shadow wins 19 of 27 July days against
 the one-layer base, 15 of 27 against the base with ``two_layer`` (``docs/VALIDATION.md`` §5).
+Observation streams the law's case fits and the base's does not (the infrared surface
+temperature of ``runs/grass_energy.toml``) are listed too (:attr:`Rolling.also_observed`): both
+forecasts are scored on the buried sensors alone, but the law's parameters have more data.
 """
 
 from __future__ import annotations
@@ -83,6 +86,8 @@ class Rolling:
     days: list[Day] = field(default_factory=list)
     #: ground or sensor effects in the law's case and not in the base's (module doc)
     also_added: list[str] = field(default_factory=list)
+    #: observation streams the law's case fits and the base's does not (module doc)
+    also_observed: list[str] = field(default_factory=list)
 
     @property
     def n(self) -> int:
@@ -125,6 +130,9 @@ class Rolling:
                     "surface), which the base lacks: the count credits both. To test the surface "
                     "law alone, give the base the same: BASE.toml+" + "+".join(self.also_added)
                     + ".")
+        if self.also_observed:
+            out += (f" The law's case also fits {', '.join(self.also_observed)}, which the base "
+                    "does not: both forecasts are scored on the buried sensors alone.")
         return out
 
     def text(self) -> str:
@@ -145,6 +153,7 @@ class Rolling:
                 "horizon_h": self.horizon_h, "n": self.n, "wins": self.wins,
                 "p_value": self.p_value, "F_sum": self.F_sum, "named": self.named,
                 "level": LEVEL, "medians": self.medians(), "also_added": list(self.also_added),
+                "also_observed": list(self.also_observed),
                 "days": [dict(vars(d)) for d in self.days]}
 
 
@@ -244,13 +253,15 @@ def _rolling(base, law, window_h, horizon_h, step_h, start_h, days, max_nfev, pr
                           "same data")
     built = {c: case_problem(c, first) for c in (str(base), str(law))}  # the first window's
     also = _also_added(built[str(base)][0].model, built[str(law)][0].model)
+    seen = _also_observed(built[str(base)][0].posterior, built[str(law)][0].posterior)
     t0 = parse_time(times[0]).timestamp()
     out = None
     for i, a in enumerate(starts):
         fb, fit_b, label_b = _one(str(base), a, window_h, horizon_h, max_nfev, built.pop(str(base), None))
         fl, fit_l, label_l = _one(str(law), a, window_h, horizon_h, max_nfev, built.pop(str(law), None))
         if out is None:
-            out = Rolling(label_b, label_l, float(window_h), float(horizon_h), also_added=also)
+            out = Rolling(label_b, label_l, float(window_h), float(horizon_h), also_added=also,
+                          also_observed=seen)
         day = Day(start_h=a, time=format_time(t0 + a * 3600.0), base_rmse=fb.rmse,
                   law_rmse=fl.rmse, base_fit=float(fit_b), law_fit=float(fit_l),
                   F=gain(fb.n, fb.rho, fb.rmse, fl.rmse),
@@ -266,3 +277,15 @@ def _also_added(base_model, law_model) -> list[str]:
     have = {e.name for e in base_model.extensions}
     return [e.name for e in law_model.extensions
             if where_acts(e) in GROUND_HOOKS and e.name not in have]
+
+
+def _also_observed(base_posterior, law_posterior) -> list[str]:
+    """``stream (labels)`` of each observation stream of the law's posterior whose columns the
+    base's does not fit."""
+    have = {(o.name, lab) for o in base_posterior.streams for lab in o.labels}
+    out = []
+    for o in law_posterior.streams:
+        new = [lab for lab in o.labels if (o.name, lab) not in have]
+        if new:
+            out.append(f"{o.name} ({', '.join(new)})")
+    return out

@@ -107,6 +107,24 @@ def test_a_ground_effect_the_law_adds_and_the_base_lacks_is_named_in_the_verdict
     assert both.to_dict()["also_added"] == ["two_layer", "sensor_bias"]
     fair = rolling_forecast(f"{case}+two_layer", f"{case}+{LAW}+two_layer", days=1)
     assert fair.also_added == [] and "also adds" not in fair.verdict()
+    assert fair.also_observed == [] and "also fits" not in fair.verdict()  # the same streams
+
+
+def test_streams_the_law_fits_and_the_base_does_not_are_listed():
+    """A law case that also fits the infrared surface temperature or a plate says so; streams
+    and columns both cases fit are not listed."""
+    from types import SimpleNamespace as NS
+
+    def post(*streams):
+        return NS(streams=[NS(name=n, labels=labs) for n, labs in streams])
+
+    base = post(("temperatures", ["2cm", "5cm"]), ("plates", ["G5cm"]))
+    law = post(("temperatures", ["2cm", "5cm"]), ("plates", ["G5cm", "G10cm"]), ("surface_ir", ["IR"]))
+    assert rolling._also_observed(base, law) == ["plates (G10cm)", "surface_ir (IR)"]
+    assert rolling._also_observed(law, base) == [] and rolling._also_observed(base, base) == []
+    r = Rolling("b", "l", 72.0, 24.0, [_day(1.0, 0.5)], also_observed=["surface_ir (IR)"])
+    assert "also fits surface_ir (IR), which the base does not" in r.verdict()
+    assert r.to_dict()["also_observed"] == ["surface_ir (IR)"]
 
 
 @pytest.mark.slow
