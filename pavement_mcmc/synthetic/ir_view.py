@@ -33,11 +33,14 @@ from .corpus import FIELD
 from .io import write_case
 from .simulate import SyntheticSpec, simulate
 
-__all__ = ["CASE_IR_SIGMA", "HELD", "IR_NOISE", "IR_OFFSET", "ir_view_case", "tiled_case"]
+__all__ = ["CASE_IR_SIGMA", "HELD", "IR_NOISE", "IR_OFFSET", "STORING_C", "ir_view_case",
+           "storing_thatch_case", "tiled_case"]
 
 IR_OFFSET, IR_NOISE = 1.0, 0.3
 #: the IR sd the case declares (not the thermometer's)
 CASE_IR_SIGMA = 0.5
+#: volumetric heat capacity of :func:`storing_thatch_case`'s thatch, J m-3 K-1 (30 kJ m-2 K-1)
+STORING_C = 2.0e6
 #: overrides that hold the case's view at 1 (the footprint all canopy)
 HELD = {"parameters": {"ir_view": {"vary": False, "value": 1.0}}}
 
@@ -60,6 +63,25 @@ def ir_view_case(directory: str | Path, view: float, seed: int) -> tuple[Path, S
                     '[parameters.C]\nvalue = 2.0e6\n'
                     'prior = { dist = "truncnormal", mean = 2.0e6, sd = 0.7e6 }\n'
                     '[parameters.ir_view]\nvary = true\n')
+    return toml, spec
+
+
+def storing_thatch_case(directory: str | Path, seed: int, layer_C: float = STORING_C,
+                        free: tuple = ("ir_lead",)) -> tuple[Path, SyntheticSpec]:
+    """As :func:`ir_view_case` with the thermometer reading the thatch's top (view 1), but a
+    thatch that stores heat (``layer_C`` J m-3 K-1 over its 1.5 cm: 30 kJ m-2 K-1 by default,
+    near the Göttingen grass's fitted canopy node): its top, which the thermometer sees, leads
+    the bulk of the layer that the inversion lumps into one node. The case holds ``ir_view``
+    at 1 and frees the stream parameters in ``free``; the TOML's path and the twin's spec."""
+    directory = Path(directory)
+    toml, _ = ir_view_case(directory, 1.0, seed)
+    spec = SyntheticSpec(seed=seed, sigma=0.1, hours=72.0,
+                         effects={"wind_convection": {}, "evapotranspiration": {},
+                                  "surface_layer": {"layer_C": float(layer_C)}},
+                         ir_view=1.0, ir_offset=IR_OFFSET, ir_noise=IR_NOISE, **FIELD)
+    write_case(spec, directory)
+    text = toml.read_text().replace("[parameters.ir_view]\nvary = true\n", "")
+    toml.write_text(text + "".join(f"[parameters.{n}]\nvary = true\n" for n in free))
     return toml, spec
 
 

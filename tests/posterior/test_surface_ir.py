@@ -116,6 +116,40 @@ def test_ir_gradient_with_the_soil_seen_between_the_leaves(tmp_path, layer):
     assert np.max(np.abs(skin - soil)) > 0.5  # the layer separates them: the test can fail
 
 
+@pytest.mark.parametrize("model", [
+    'extensions = ["energy_balance", "canopy"]\n[parameters.ir_view]\nvary = true\nvalue = 0.7\n',
+    'h = { kind = "uniform", n = 4 }\n'])
+def test_ir_gradient_with_a_lead(tmp_path, model):
+    """The surface the IR sees leads the skin by ir_lead minutes (T + tau dT/dt at the rows):
+    its adjoint, through the skin (a canopy node, or the top node) and the lead itself, equals
+    central differences of whole solves, and the reading is the skin plus tau times its
+    backward difference."""
+    pb = build_problem(load_case(_twin(tmp_path, model=model + '[parameters.ir_lead]\nvary = true\n')))
+    post = pb.posterior
+    rng = np.random.default_rng(5)
+    th = np.repeat(pb.space.initial()[None], 2, 0) * (1 + 0.02 * rng.standard_normal((2, len(pb.space.free))))
+    j = pb.space.free.index("ir_lead")
+    th[:, j] = [12.0, 40.0]
+    ll, g, _ = post.loglik_and_grad(th, "adjoint")
+    ref = _central(post, th)
+    np.testing.assert_allclose(g, ref, rtol=0, atol=1e-6 * np.abs(ref).max())
+    assert abs(ref[0, j]) > 1e-3
+    np.testing.assert_allclose(g[:, j], ref[:, j], rtol=1e-5)
+    p = pb.space.expand(th[:1])
+    m = pb.model
+    coeffs = m.coefficients(p)
+    T_nodes = m.solve(p)
+    from pavement_mcmc.physics.skin import skin_temperature
+
+    skin = skin_temperature(m, T_nodes, coeffs, p)[0]
+    ir = post.stream("surface_ir")
+    p0 = dict(p, ir_lead=np.zeros(1))
+    led = ir.predict(m, T_nodes, coeffs, p)[0, :, 0] - ir.predict(m, T_nodes, coeffs, p0)[0, :, 0]
+    want = p["ir_view"][0] * 60.0 * p["ir_lead"][0] * np.diff(skin) / np.diff(m.meas.t)
+    np.testing.assert_allclose(led[1:], want, rtol=1e-9, atol=1e-12)
+    assert led[0] == 0.0 and np.max(np.abs(want)) > 0.1  # the skin moves: the test can fail
+
+
 def test_the_ir_parameters_can_be_set_in_a_case_whose_grid_is_chosen(tmp_path):
     """A bottom deeper than 10 cm makes the auto grid compare predictions at the case's values,
     which configured the model's parameters without the stream's: ``[parameters.ir_view]``, as
@@ -182,5 +216,37 @@ def test_a_view_into_the_sward_is_weighed_and_ignoring_it_inflates_the_soil(tmp_
     toml, spec = tiled_case(tmp_path / "tiles", 0.6, 1)
     v = refit(build_problem(load_case(toml))).values()
     assert v["ir_view"] > 0.85
+    assert v["kappa"] == pytest.approx(spec.kappa, rel=0.25)
+    assert v["C"] == pytest.approx(spec.C, rel=0.25)
+
+
+def test_a_lead_is_found_where_the_radiometer_sees_the_top_of_a_heat_storing_thatch(tmp_path):
+    """Twins from the independent simulator (a resolved thatch, not the inversion's lumped
+    node; synthetic/ir_view.py). A thatch that stores 30 kJ m-2 K-1, read at its top: the top
+    leads the bulk the inversion lumps into its canopy node, and the MAP finds a lead of about
+    25 min, fits the IR better, recovers the layer's heat capacity (held at 0 it finds a third
+    of it) and the soil better. A thin thatch that stores little, seen into: no lead is found
+    (no false lead), and the soil is found as without one."""
+    from pavement_mcmc.criticism import refit
+    from pavement_mcmc.synthetic.ir_view import STORING_C, ir_view_case, storing_thatch_case
+
+    toml, spec = storing_thatch_case(tmp_path / "storing", 1)
+    stored = STORING_C * spec.effects["surface_layer"].get("layer_thickness", 0.015)
+
+    def fit(toml, overrides=None):
+        pb = build_problem(load_case(toml, overrides))
+        f = refit(pb)
+        ir = dict(zip(pb.posterior.blob_names, pb.posterior.loglik_blobs(f.theta[None])[1][0]))
+        return f.values(), ir["rmse_IR"]
+
+    v, ir = fit(toml)
+    v0, ir0 = fit(toml, {"parameters": {"ir_lead": {"vary": False, "value": 0.0}}})
+    assert 10.0 < v["ir_lead"] < 45.0
+    assert ir < 0.8 * ir0
+    assert v["c_canopy"] == pytest.approx(stored, rel=0.35) and v0["c_canopy"] < 0.5 * stored
+    assert abs(v["kappa"] / spec.kappa - 1) < abs(v0["kappa"] / spec.kappa - 1)
+    toml, spec = ir_view_case(tmp_path / "thin", 0.6, 1)
+    v, _ = fit(toml, {"parameters": {"ir_lead": {"vary": True}}})
+    assert v["ir_lead"] < 8.0
     assert v["kappa"] == pytest.approx(spec.kappa, rel=0.25)
     assert v["C"] == pytest.approx(spec.C, rel=0.25)
