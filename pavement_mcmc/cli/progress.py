@@ -21,7 +21,9 @@ def describe(info: dict) -> str:
     if ess is None:
         return f"sampling: step {n}, ESS not checked yet (target {target:g}); {tail}"
     pct = min(100.0, 100.0 * ess / target)
-    return f"min ESS {ess:.0f}/{target:g} ({pct:.0f}%) at step {n}; {tail}"
+    held = info.get("held")
+    wait = f"; held by {held}" if held and not held.startswith("ESS") else ""
+    return f"min ESS {ess:.0f}/{target:g} ({pct:.0f}%){wait} at step {n}; {tail}"
 
 
 class Progress:

@@ -205,7 +205,7 @@ def run_sampler(
         if callback is not None:
             callback({"n_steps": n_steps, "n_evals": n_evals, "n_adapt": n_adapt,
                       "max_steps": max_steps, "adapting": adapt,
-                      **_progress(rule, min_ess, b, time.perf_counter() - t0)})
+                      **_progress(rule, min_ess, b, time.perf_counter() - t0, check)})
         if converged:
             break
     if not converged and n_steps >= n_adapt and rows.n:
@@ -217,10 +217,13 @@ def run_sampler(
                     time.perf_counter() - t0, n_adapt_rows)
 
 
-def _progress(rule: StoppingRule, min_ess: float | None, b, elapsed: float) -> dict:
-    """The callback's view of the last block and check (min ESS against the target)."""
+def _progress(rule: StoppingRule, min_ess: float | None, b, elapsed: float,
+              check: Check | None = None) -> dict:
+    """The callback's view of the last block and check (min ESS against the target, and what
+    held the last check: once the ESS is met a run may wait on R-hat, drift or Geweke)."""
     return {"ess_target": rule.ess_target, "acceptance": float(b.accepted.mean()),
-            "min_ess": min_ess, "elapsed": elapsed}
+            "min_ess": min_ess, "elapsed": elapsed,
+            "held": check.failures[0] if check is not None and check.failures else None}
 
 
 def _min_ess(check: Check, last: float | None) -> float | None:

@@ -32,6 +32,31 @@ def test_describe_shows_ess_against_target():
     assert "200000" not in describe(_info(400, 250.0))
 
 
+def test_the_line_says_what_holds_a_run_whose_ess_is_met():
+    """With the ESS met a run may wait on R-hat, drift or Geweke: the line says which (the
+    grass energy case waited thousands of steps on Geweke while its line showed only ESS)."""
+    held = "Geweke: 2 of 13 principal components differ (about 0.7 expected by chance)"
+    line = describe({**_info(9000, 7000.0), "held": held})
+    assert "min ESS 7000/1000 (100%); held by Geweke: 2 of 13" in line
+    assert "held by" not in describe({**_info(400, 250.0), "held": "ESS 250 < 1000 (kappa)"})
+    assert "held by" not in describe(_info(400, 250.0))
+
+
+def test_the_run_loop_passes_the_last_checks_failure_to_the_callback():
+    from types import SimpleNamespace as NS
+
+    import numpy as np
+
+    from pavement_mcmc.diagnostics.stopping import StoppingRule
+    from pavement_mcmc.runs.loop import _progress
+
+    b = NS(accepted=np.array([1.0, 0.0]))
+    failed = NS(failures=["R-hat 1.020 >= 1.01 (C)"])
+    assert _progress(StoppingRule(), 50.0, b, 1.0, failed)["held"] == "R-hat 1.020 >= 1.01 (C)"
+    assert _progress(StoppingRule(), 50.0, b, 1.0, NS(failures=[]))["held"] is None
+    assert _progress(StoppingRule(), None, b, 1.0)["held"] is None
+
+
 def test_non_tty_stream_gets_sparse_plain_lines():
     stream = io.StringIO()
     bar = Progress(stream, every=10.0, clock=_Clock())
