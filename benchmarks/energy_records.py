@@ -130,10 +130,10 @@ def run(toml: Path, exts: list[str] | None = None, overrides: dict | None = None
            "rmse_ir": blobs.get("rmse_IR"),
            "plate": v.get("plate_G5cm"), "p_eff": fit.p_eff, "seconds": 0.0}
     lo, hi = pb.space.bounds()
-    base_names = {"kappa", "C", "gamma", "plate_G5cm", "ir_offset", "ir_view"}
+    base_names = {"kappa", "C", "gamma", "plate_G5cm", "ir_offset", "ir_view", "ir_lead"}
     own = [n for n in pb.space.free if n not in base_names and pb.space[n].group != "h"]
     out["added"] = {n: v[n] for n in own}
-    out["ir"] = {n: v[n] for n in ("ir_offset", "ir_view") if n in pb.space.free}
+    out["ir"] = {n: v[n] for n in ("ir_offset", "ir_view", "ir_lead") if n in pb.space.free}
     out["at_bound"] = [n for n in own if min(v[n] - lo[pb.space.free.index(n)],
                                              hi[pb.space.free.index(n)] - v[n])
                        < 1e-3 * (hi[pb.space.free.index(n)] - lo[pb.space.free.index(n)])]

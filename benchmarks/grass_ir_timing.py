@@ -107,6 +107,12 @@ def main() -> None:
             res = ir_by_hour({"data": {"extras": str(shifted_extras(tmp, k))}, "parameters": NO_LEAD})
             print(f"  IR moved {k * ROW_MIN:+d} min, no lead: " + " ".join(f"{x:+.1f}" for x in res))
         print("  the case (lead free), IR as recorded: " + " ".join(f"{x:+.1f}" for x in ir_by_hour({})))
+        from ir_lead_twins import relaxation_min
+
+        pb = build_problem(load_case(TOML))
+        v = refit(pb, max_nfev=200).values()
+        print(f"the case's lead {v['ir_lead']:.1f} min; its canopy node's relaxation time c_canopy/K "
+              f"{relaxation_min(pb.model.meas, v):.1f} min (c_canopy {v['c_canopy']:.0f} J m-2 K-1)")
 
 
 if __name__ == "__main__":

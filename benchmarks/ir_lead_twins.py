@@ -8,7 +8,8 @@ simulator (synthetic/ir_view.py: a resolved thatch, not the inversion's lumped c
   the weight free, the lead held at 0 and free (a lead found there would be false).
 
 Per twin and fit: the in-sample RMSE of the buried sensors, the IR RMSE, the errors of kappa and
-C against the truth, the lead (min), the weight and the fitted canopy heat capacity (J m-2 K-1).
+C against the truth, the lead (min), the weight, the fitted canopy heat capacity (J m-2 K-1) and
+the node's relaxation time c_canopy / K (:func:`relaxation_min`), which the lead comes out near.
 
     PYTHONPATH=. python benchmarks/ir_lead_twins.py [first_seed] [n_seeds]
 """
@@ -18,6 +19,8 @@ from __future__ import annotations
 import sys
 import tempfile
 from pathlib import Path
+
+import numpy as np
 
 from pavement_mcmc.criticism import refit
 from pavement_mcmc.data import load_case
@@ -37,7 +40,15 @@ def line(label: str, toml: Path, spec, overrides: dict | None) -> str:
     return (f"{label:34s} RMSE {fit.rmse:.3f}  IR {blobs['rmse_IR']:.3f}  "
             f"kappa {v['kappa'] / spec.kappa - 1:+.2f}  C {v['C'] / spec.C - 1:+.2f}  "
             f"lead {v.get('ir_lead', 0.0):5.1f}  weight {v.get('ir_view', 1.0):.2f}  "
-            f"c_canopy {v['c_canopy']:.0f}")
+            f"c_canopy {v['c_canopy']:.0f}  c/K {relaxation_min(pb.model.meas, v):.1f} min")
+
+
+def relaxation_min(meas, v: dict) -> float:
+    """The canopy node's relaxation time c_canopy / K, minutes, K = h_H + 1/R_canopy with h_H
+    the fitted law's at the mean daytime wind (q_net > 0)."""
+    wind = 0.0 if meas.wind is None else float(np.mean(np.asarray(meas.wind)[meas.q_net > 0]))
+    K = v["eb_h0"] + v.get("eb_h1", 0.0) * wind + 1.0 / v["R_canopy"]
+    return v["c_canopy"] / K / 60.0
 
 
 def main(first: int, n: int) -> None:

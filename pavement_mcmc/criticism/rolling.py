@@ -88,6 +88,8 @@ class Rolling:
     also_added: list[str] = field(default_factory=list)
     #: observation streams the law's case fits and the base's does not (module doc)
     also_observed: list[str] = field(default_factory=list)
+    #: the base's case as given (``CASE.toml+ext``), for the command the verdict suggests
+    base_case: str = "BASE.toml"
 
     @property
     def n(self) -> int:
@@ -128,11 +130,13 @@ class Rolling:
             extra = ", ".join(self.also_added)
             out += (f" The law's case also adds {extra} (in the ground or a sensor, not at the "
                     "surface), which the base lacks: the count credits both. To test the surface "
-                    "law alone, give the base the same: BASE.toml+" + "+".join(self.also_added)
-                    + ".")
+                    f"law alone, give the base the same: {self.base_case}+"
+                    + "+".join(self.also_added) + " (with the law case's settings of them).")
         if self.also_observed:
             out += (f" The law's case also fits {', '.join(self.also_observed)}, which the base "
-                    "does not: both forecasts are scored on the buried sensors alone.")
+                    "does not: both forecasts are scored on the buried sensors alone, but the "
+                    "law's parameters are fitted to these data too, so the count credits them "
+                    "as well.")
         return out
 
     def text(self) -> str:
@@ -261,7 +265,7 @@ def _rolling(base, law, window_h, horizon_h, step_h, start_h, days, max_nfev, pr
         fl, fit_l, label_l = _one(str(law), a, window_h, horizon_h, max_nfev, built.pop(str(law), None))
         if out is None:
             out = Rolling(label_b, label_l, float(window_h), float(horizon_h), also_added=also,
-                          also_observed=seen)
+                          also_observed=seen, base_case=str(base))
         day = Day(start_h=a, time=format_time(t0 + a * 3600.0), base_rmse=fb.rmse,
                   law_rmse=fl.rmse, base_fit=float(fit_b), law_fit=float(fit_l),
                   F=gain(fb.n, fb.rho, fb.rmse, fl.rmse),

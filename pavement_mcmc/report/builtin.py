@@ -116,7 +116,7 @@ def _figures(view: RunView, n_draws: int) -> list[tuple[str, Callable, str]]:
         figs.append(("Heat-flux plates and infrared temperature", streams,
                      "The other observations beside the buried sensors, measured against the "
                      f"posterior predictive of {n_draws} draws (a plate's prediction includes "
-                     "its calibration factor, the infrared one its offset)."))
+                     "its calibration factor, the infrared one its offset, weight and lead)."))
     if not pb.model.replaces_h:  # an energy balance or a measured top has its own fluxes
         figs.append(("Surface fluxes", fluxes,
                      "Convective flux h (T_air − T_s) with its band, the measured net radiation, "

@@ -45,13 +45,15 @@ STORING_C = 2.0e6
 HELD = {"parameters": {"ir_view": {"vary": False, "value": 1.0}}}
 
 
-def ir_view_case(directory: str | Path, view: float, seed: int) -> tuple[Path, SyntheticSpec]:
+def ir_view_case(directory: str | Path, view: float, seed: int,
+                 thatch: dict | None = None, free: tuple = ("ir_view",)) -> tuple[Path, SyntheticSpec]:
     """Write the twin of ``view`` and ``seed`` and its ``case.toml`` into ``directory``; the
-    TOML's path and the twin's spec (its truth)."""
+    TOML's path and the twin's spec (its truth). ``thatch``: the simulator's ``surface_layer``
+    settings (default its own); ``free``: the stream parameters the case frees."""
     directory = Path(directory)
     spec = SyntheticSpec(seed=seed, sigma=0.1, hours=72.0,
                          effects={"wind_convection": {}, "evapotranspiration": {},
-                                  "surface_layer": {}},
+                                  "surface_layer": dict(thatch or {})},
                          ir_view=view, ir_offset=IR_OFFSET, ir_noise=IR_NOISE, **FIELD)
     csv_path = write_case(spec, directory)
     toml = directory / "case.toml"
@@ -62,7 +64,7 @@ def ir_view_case(directory: str | Path, view: float, seed: int) -> tuple[Path, S
                     'prior = { dist = "truncnormal", mean = 1.0, sd = 0.5 }\n'
                     '[parameters.C]\nvalue = 2.0e6\n'
                     'prior = { dist = "truncnormal", mean = 2.0e6, sd = 0.7e6 }\n'
-                    '[parameters.ir_view]\nvary = true\n')
+                    + "".join(f"[parameters.{n}]\nvary = true\n" for n in free))
     return toml, spec
 
 
@@ -70,19 +72,12 @@ def storing_thatch_case(directory: str | Path, seed: int, layer_C: float = STORI
                         free: tuple = ("ir_lead",)) -> tuple[Path, SyntheticSpec]:
     """As :func:`ir_view_case` with the thermometer reading the thatch's top (view 1), but a
     thatch that stores heat (``layer_C`` J m-3 K-1 over its 1.5 cm: 30 kJ m-2 K-1 by default,
-    near the Göttingen grass's fitted canopy node): its top, which the thermometer sees, leads
-    the bulk of the layer that the inversion lumps into one node. The case holds ``ir_view``
-    at 1 and frees the stream parameters in ``free``; the TOML's path and the twin's spec."""
-    directory = Path(directory)
-    toml, _ = ir_view_case(directory, 1.0, seed)
-    spec = SyntheticSpec(seed=seed, sigma=0.1, hours=72.0,
-                         effects={"wind_convection": {}, "evapotranspiration": {},
-                                  "surface_layer": {"layer_C": float(layer_C)}},
-                         ir_view=1.0, ir_offset=IR_OFFSET, ir_noise=IR_NOISE, **FIELD)
-    write_case(spec, directory)
-    text = toml.read_text().replace("[parameters.ir_view]\nvary = true\n", "")
-    toml.write_text(text + "".join(f"[parameters.{n}]\nvary = true\n" for n in free))
-    return toml, spec
+    near the Göttingen grass's fitted canopy node; a wet soil's heat capacity with a dry
+    litter's conductivity, an unusual material but a clear test): its top, which the
+    thermometer sees, leads the bulk of the layer that the inversion lumps into one node. The
+    case holds ``ir_view`` at 1 and frees the stream parameters in ``free``; the TOML's path
+    and the twin's spec."""
+    return ir_view_case(directory, 1.0, seed, thatch={"layer_C": float(layer_C)}, free=free)
 
 
 def tiled_case(directory: str | Path, view: float, seed: int) -> tuple[Path, SyntheticSpec]:

@@ -103,7 +103,7 @@ def test_a_ground_effect_the_law_adds_and_the_base_lacks_is_named_in_the_verdict
     both = rolling_forecast(case, f"{case}+{LAW}+two_layer+sensor_bias", days=1)
     assert both.also_added == ["two_layer", "sensor_bias"]
     assert "also adds two_layer, sensor_bias" in both.verdict()
-    assert "+two_layer+sensor_bias" in both.verdict()
+    assert f"{case}+two_layer+sensor_bias" in both.verdict()  # the base as given, extended
     assert both.to_dict()["also_added"] == ["two_layer", "sensor_bias"]
     fair = rolling_forecast(f"{case}+two_layer", f"{case}+{LAW}+two_layer", days=1)
     assert fair.also_added == [] and "also adds" not in fair.verdict()
