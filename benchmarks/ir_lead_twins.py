@@ -6,6 +6,8 @@ simulator (synthetic/ir_view.py: a resolved thatch, not the inversion's lumped c
   reading its top; the lead free and held at 0 (the weight held at 1), and both free.
 - ``thin``: the thin thatch of ``ir_view_case`` (4.5 kJ m-2 K-1), 60 % of the view stopped in it;
   the weight free, the lead held at 0 and free (a lead found there would be false).
+- both with ``[data] ir_storage_free`` (the weight free): no lead parameter, the node's own
+  relaxation time c_canopy / K as the lead (posterior/surface_ir.py).
 
 Per twin and fit: the in-sample RMSE of the buried sensors, the IR RMSE, the errors of kappa and
 C against the truth, the lead (min), the weight, the fitted canopy heat capacity (J m-2 K-1) and
@@ -61,9 +63,20 @@ def main(first: int, n: int) -> None:
             print("  " + line("storing, lead 0", toml, spec, LEAD_0), flush=True)
             toml, spec = storing_thatch_case(Path(d) / f"v{seed}", seed, free=("ir_lead", "ir_view"))
             print("  " + line("storing, lead and weight free", toml, spec, None), flush=True)
+            toml, spec = storing_thatch_case(Path(d) / f"f{seed}", seed, free=("ir_view",))
+            storage_free(toml)
+            print("  " + line("storing, storage-free, weight free", toml, spec, None), flush=True)
             toml, spec = ir_view_case(Path(d) / f"t{seed}", 0.6, seed)
             print("  " + line("thin into 0.6, weight free, lead 0", toml, spec, None), flush=True)
             print("  " + line("thin into 0.6, lead free too", toml, spec, LEAD), flush=True)
+            toml, spec = ir_view_case(Path(d) / f"u{seed}", 0.6, seed)
+            storage_free(toml)
+            print("  " + line("thin into 0.6, storage-free", toml, spec, None), flush=True)
+
+
+def storage_free(toml: Path) -> None:
+    """The case reads the IR as a surface without storage (``[data] ir_storage_free``)."""
+    toml.write_text(toml.read_text().replace("ir_sigma = ", "ir_storage_free = true\nir_sigma = "))
 
 
 if __name__ == "__main__":

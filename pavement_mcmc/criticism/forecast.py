@@ -38,7 +38,6 @@ from ..physics.hbasis import HBasis
 from ..posterior import LogPosterior, Problem
 from ..posterior.logpost import default_streams
 from ..posterior.observations import with_parameters
-from ..posterior.surface_ir import SurfaceIR
 from .fitting import Fit, refit
 from .residuals import inflation, pooled_lag1
 
@@ -147,7 +146,7 @@ def training_problem(problem, n_train: int) -> Problem:
     streams = default_streams(model, flux_sd)
     ir = problem.posterior.stream("surface_ir")
     if ir is not None:  # the run's IR stream on the training rows, with its ir_offset
-        streams.append(SurfaceIR(meas, ir.sigma))
+        streams.append(ir.on(meas))
     defaults = with_parameters(model.parameter_space(), streams)
     params = [problem.space[n] if n in problem.space else p for n, p in defaults.params.items()]
     space = ParameterSpace(params, defaults.joint_priors)

@@ -25,6 +25,9 @@ Schema (paths are relative to the TOML file's directory)::
                                     # SW_in, SW_out, LW_in, LW_out: data/extras.py)
     ir_sigma = 0.5                  # optional, degC: observe T_surf_IR with this sd and an
                                     # offset parameter ir_offset (posterior/surface_ir.py)
+    ir_storage_free = false         # optional: under a canopy the IR reads a surface without
+                                    # heat storage, leading the canopy node by its relaxation
+                                    # time c_canopy / K (posterior/surface_ir.py)
     dew_below_tmin = 0.0            # optional, K: no humidity measured; the dew point T_dew is
                                     # the 24 h minimum air temperature less this (FAO-56;
                                     # 2-4 over arid ground; data/humidity.py)

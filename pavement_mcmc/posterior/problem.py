@@ -98,7 +98,12 @@ def _assemble(cfg, extensions, h_spec, given: Grid | None = None):
     data = cfg.data
     # the infrared surface temperature, an offset its nuisance: built first, since a case may
     # set its parameters (``[parameters.ir_offset]``) and the grid's choice configures them
-    extra = [SurfaceIR(meas, data["ir_sigma"])] if "ir_sigma" in data else []
+    if data.get("ir_storage_free") and ("ir_sigma" not in data or not any(
+            getattr(e, "name", e) == "canopy" for e in exts)):
+        raise ValueError("[data] ir_storage_free needs ir_sigma (the IR observed) and the canopy "
+                         "extension (whose skin node the IR leads)")
+    extra = ([SurfaceIR(meas, data["ir_sigma"], storage_free=data.get("ir_storage_free", False))]
+             if "ir_sigma" in data else [])
 
     def model_on(grid: Grid) -> Model:
         return Model(meas, grid, basis, exts, scheme=grid_cfg.get("scheme", "cn"), gamma0=gamma0,

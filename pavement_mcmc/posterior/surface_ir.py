@@ -47,16 +47,24 @@ relaxes towards the temperature a surface without storage would have under the s
 :math:`T_k + \tau\,dT_k/dt` with :math:`\tau = c/K` (:math:`K` = the node's transfer to the air
 and to the soil, :math:`h_H + 1/R`), and that is what the IR reads in place of :math:`T_k`
 above, at the record's rows as the inverse of the node's implicit step,
-:math:`T_k(t_i) + \tau\,(T_k(t_i) - T_k(t_{i-1}))/(t_i - t_{i-1})`. :math:`\tau` is a free
-parameter, not :math:`c/K`: the fits find it at 0.8-1.0 of the node's relaxation time (the grass
-32 min against 40; twins of a heat-storing thatch read at its top 23.6-26.0 against 24.9-28.0,
-``benchmarks/ir_lead_twins.py``, ``benchmarks/grass_ir_timing.py``). The balance still acts on
-the node (H and LE are the node's, not the leaves': the midday Bowen ratio and G/Rn depend on
-that shortcut). On the grass record the lead takes the IR misfit from 1.24 to 1.10 °C and the
-next-day forecast of the buried sensors from 0.230 to 0.211 °C; on the twins it is found with
-the thatch's heat capacity (held at 0 the fit finds a third of it) and κ and C stay 23-40 % off
-(5-33 % with the weight free too); over a thin thatch no lead is found (docs/VALIDATION.md
-section 5).
+:math:`T_k(t_i) + \tau\,(T_k(t_i) - T_k(t_{i-1}))/(t_i - t_{i-1})`. Two forms:
+
+- ``[data] ir_storage_free = true`` (needs ``canopy``): :math:`\tau = c_{canopy}/(h + 1/R_{canopy})`
+  over each interval, with the balance's own transfer coefficient :math:`h`: no parameter.
+  ``runs/grass_energy.toml`` uses it (its ``hmc`` fit 67-107 s).
+- ``[parameters.ir_lead] vary = true``: :math:`\tau` a free parameter (minutes). The fits find
+  it at 0.8-1.0 of the node's relaxation time (the grass 32 min against 40; twins of a
+  heat-storing thatch read at its top 23.6-26.0 against 24.9-28.0, ``benchmarks/ir_lead_twins.py``,
+  ``benchmarks/grass_ir_timing.py``), along a ridge with ``c_canopy`` (the grass's ``hmc`` fit
+  855-1236 s).
+
+The balance still acts on the node (H and LE are the node's, not the leaves': the midday Bowen
+ratio and G/Rn depend on that shortcut). On the grass record the free lead takes the IR misfit
+from 1.24 to 1.10 °C and the next-day forecast of the buried sensors from 0.230 to 0.211 °C
+(storage-free: 1.21 and 0.207); on the twins it is found with the thatch's heat capacity (held
+at 0 the fit finds a third of it) and κ and C stay 23-40 % off (5-33 % with the weight free too;
+storage-free and the weight free 2-22 %); over a thin thatch no lead is found
+(docs/VALIDATION.md section 5).
 
 Column convention: ``T_surf_IR`` in the case CSV or in the ``[data] extras`` CSV
 (:mod:`pavement_mcmc.data.extras`); switched on by ``[data] ir_sigma`` (the sd of one reading,
@@ -89,7 +97,7 @@ class SurfaceIR(Observation):
     labels = ["IR"]
     quantity, unit = "infrared surface temperature", "°C"
 
-    def __init__(self, meas, sigma: float):
+    def __init__(self, meas, sigma: float, storage_free: bool = False):
         if COLUMN not in meas.extras:
             raise ValueError(f"ir_sigma is set but the data have no {COLUMN!r} column (in the "
                              "case CSV or the [data] extras CSV)")
@@ -99,12 +107,18 @@ class SurfaceIR(Observation):
         if not sigma > 0:
             raise ValueError(f"ir_sigma must be > 0, got {sigma!r}")
         self.sigma = float(sigma)
+        self.storage_free = bool(storage_free)
         self.data = np.asarray(meas.extras[COLUMN], float)[1:, None]  # (n_obs - 1, 1)
         n_gap = int(np.sum(~np.isfinite(meas.extras[COLUMN])))
         if n_gap:
             raise ValueError(f"{COLUMN} has {n_gap} missing values in the case's window that "
                              "max_gap_fill cannot fill (at its edge or too long); narrow "
                              "window_hours or raise max_gap_fill")
+
+    def on(self, meas) -> SurfaceIR:
+        """The same stream (its sd and its reading's form) on other rows ``meas`` (a forecast's
+        training rows)."""
+        return SurfaceIR(meas, self.sigma, storage_free=self.storage_free)
 
     def parameters(self) -> list:
         return [Parameter("ir_offset", 0.0, -20.0, 20.0,
@@ -114,13 +128,15 @@ class SurfaceIR(Observation):
                           unit="-", vary=False,
                           description="weight of the modelled skin in the IR reading (the rest: "
                                       "the soil under a layer, else the air)"),
-                Parameter("ir_lead", 0.0, 0.0, 120.0, prior=TruncatedNormal(0.0, 60.0, 0.0, 120.0),
-                          unit="min", vary=False,
-                          description="how far the surface the IR sees leads the model's skin "
-                                      "(a first-order lag's time constant)")]
+                *([] if self.storage_free else [Parameter(
+                    "ir_lead", 0.0, 0.0, 120.0, prior=TruncatedNormal(0.0, 60.0, 0.0, 120.0),
+                    unit="min", vary=False,
+                    description="how far the surface the IR sees leads the model's skin (a "
+                                "first-order lag's time constant)")])]
 
     def predict(self, model, T_nodes, coeffs, p):
-        T = _lead(skin_temperature(model, T_nodes, coeffs, p), model.meas.t, p)[0]
+        T = _lead(skin_temperature(model, T_nodes, coeffs, p), model.meas.t,
+                  self._tau(model, coeffs, p))[0]
         f = np.asarray(p["ir_view"], float)[:, None]
         Tb = _background(model, T_nodes)[0]
         return (Tb + f * (T - Tb))[..., None] + np.asarray(p["ir_offset"], float)[:, None, None]
@@ -140,7 +156,8 @@ class SurfaceIR(Observation):
         gT = np.zeros(T_nodes.shape) if gT is None else gT
         g_skin = np.concatenate([np.zeros((g.shape[0], 1)), g], axis=1)
         f = np.asarray(p["ir_view"], float)[:, None]
-        T, rate, a = _lead(skin_temperature(model, T_nodes, coeffs, p), model.meas.t, p)
+        tau = self._tau(model, coeffs, p)
+        T, rate, a = _lead(skin_temperature(model, T_nodes, coeffs, p), model.meas.t, tau)
         g_lead = f * g_skin  # the cotangent of the led skin; back through the lead to the skin
         g_node = g_lead * (1.0 + a)
         g_node[:, :-1] -= (g_lead * a)[:, 1:]
@@ -151,21 +168,50 @@ class SurfaceIR(Observation):
             gT[..., node] += (1.0 - f) * g_skin
         direct["ir_offset"] = np.sum(g, axis=1)
         direct["ir_view"] = np.sum(g_skin * (T - Tb), axis=1)
-        direct["ir_lead"] = 60.0 * np.sum(g_lead * rate, axis=1)
+        if self.storage_free:  # tau = c / (h + 1/R): through c_canopy, R_canopy and h
+            c, R = _canopy(p)
+            K = c / tau[:, 1:]
+            gs = (g_lead * rate)[:, 1:]
+            direct["c_canopy"] = direct.get("c_canopy", 0.0) + np.sum(gs / K, axis=1)
+            direct["R_canopy"] = (direct.get("R_canopy", 0.0)
+                                  + np.sum(gs * c / (K * K * R * R), axis=1))
+            direct["h"] = direct.get("h", 0.0) - gs * c / (K * K)
+        else:
+            direct["ir_lead"] = 60.0 * np.sum(g_lead * rate, axis=1)
         return gT, direct
 
+    def _tau(self, model, coeffs, p) -> np.ndarray:
+        """The lead at each row (n_sets, n_obs), s: ``ir_lead`` minutes, or with
+        ``storage_free`` the canopy node's relaxation time ``c / (h + 1/R)`` over the interval
+        ending at the row (row 0: unused)."""
+        n = coeffs.h.shape[0]
+        if not self.storage_free:
+            lead = np.asarray(p["ir_lead"], float) if "ir_lead" in p else np.zeros(n)
+            return np.broadcast_to(60.0 * lead[:, None], (n, model.meas.t.size))
+        c, R = _canopy(p)
+        K = coeffs.h + 1.0 / R
+        return c / np.concatenate([K[:, :1], K], axis=1)
 
-def _lead(T: np.ndarray, t: np.ndarray, p) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+
+def _lead(T: np.ndarray, t: np.ndarray, tau: np.ndarray
+          ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """``(T + tau dT/dt, dT/dt, tau / dt)`` of the skin ``T`` (n_sets, n_obs) at the rows ``t``
-    (s), ``tau`` = ``ir_lead`` minutes; dT/dt the backward difference, 0 at the first row (the
+    (s), ``tau`` (n_sets, n_obs) s; dT/dt the backward difference, 0 at the first row (the
     inverse of a first-order lag's implicit step, module doc)."""
     dt = np.diff(np.asarray(t, float))
     rate = np.zeros(T.shape)
     rate[:, 1:] = np.diff(T, axis=1) / dt
-    tau = 60.0 * np.asarray(p["ir_lead"], float)[:, None] if "ir_lead" in p else np.zeros((T.shape[0], 1))
     a = np.zeros(T.shape)
-    a[:, 1:] = tau / dt
+    a[:, 1:] = tau[:, 1:] / dt
     return T + tau * rate, rate, a
+
+
+def _canopy(p) -> tuple[np.ndarray, np.ndarray]:
+    """``(c_canopy, R_canopy)`` as (n_sets, 1) columns; refused without a ``canopy``."""
+    if "c_canopy" not in p or "R_canopy" not in p:
+        raise ValueError("[data] ir_storage_free needs the canopy extension: the surface the IR "
+                         "sees leads the canopy's skin node by that node's relaxation time")
+    return (np.asarray(p["c_canopy"], float)[:, None], np.asarray(p["R_canopy"], float)[:, None])
 
 
 def _background(model, T_nodes: np.ndarray) -> tuple[np.ndarray, int | None]:

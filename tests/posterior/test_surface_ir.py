@@ -194,6 +194,14 @@ def test_the_forecasts_training_refit_keeps_the_ir_stream(tmp_path):
     assert ir.data.shape[0] == n_train
     lap = find_map(tr.posterior)
     assert dict(zip(tr.space.free, lap.theta, strict=True))["ir_offset"] == pytest.approx(OFFSET, abs=0.2)
+    # the reading's form goes with it: a storage-free reading stays storage-free (it was
+    # rebuilt without it, so rolling forecasts of runs/grass_energy.toml read the node itself)
+    model = 'extensions = ["energy_balance", "canopy"]\n'
+    toml = _twin(tmp_path / "sf", model=model)
+    toml.write_text(toml.read_text().replace("ir_sigma = ", "ir_storage_free = true\nir_sigma = "))
+    pb = build_problem(load_case(toml))
+    assert pb.posterior.stream("surface_ir").storage_free
+    assert training_problem(pb, n_train).posterior.stream("surface_ir").storage_free
 
 
 def test_a_view_into_the_sward_is_weighed_and_ignoring_it_inflates_the_soil(tmp_path):
@@ -250,3 +258,75 @@ def test_a_lead_is_found_where_the_radiometer_sees_the_top_of_a_heat_storing_tha
     assert v["ir_lead"] < 8.0
     assert v["kappa"] == pytest.approx(spec.kappa, rel=0.25)
     assert v["C"] == pytest.approx(spec.C, rel=0.25)
+
+
+def test_a_storage_free_reading_finds_a_heat_storing_thatch_and_no_lead_under_a_thin_one(tmp_path):
+    """The same twins read with ``[data] ir_storage_free`` (the lead is the node's relaxation
+    time, no parameter; the weight free): over the storing thatch the IR fits better than the
+    node read directly and the thatch's heat capacity is found; over the thin thatch the node's
+    relaxation time stays short and the soil is found as without it."""
+    from pavement_mcmc.criticism import refit
+    from pavement_mcmc.synthetic.ir_view import STORING_C, ir_view_case, storing_thatch_case
+
+    def fit(toml, storage_free):
+        if storage_free:
+            toml.write_text(toml.read_text().replace("ir_sigma = ", "ir_storage_free = true\nir_sigma = "))
+        pb = build_problem(load_case(toml))
+        f = refit(pb)
+        ir = dict(zip(pb.posterior.blob_names, pb.posterior.loglik_blobs(f.theta[None])[1][0]))
+        v = f.values()
+        tau = v["c_canopy"] / (v["eb_h0"] + 1.0 / v["R_canopy"]) / 60.0  # min, at no wind
+        return v, ir["rmse_IR"], tau
+
+    toml, spec = storing_thatch_case(tmp_path / "storing", 1, free=("ir_view",))
+    v, ir, tau = fit(toml, True)
+    toml0, _ = storing_thatch_case(tmp_path / "direct", 1, free=("ir_view",))
+    v0, ir0, _ = fit(toml0, False)
+    assert ir < 0.85 * ir0 and tau > 15.0
+    assert v["c_canopy"] == pytest.approx(STORING_C * 0.015, rel=0.35)
+    assert abs(v["kappa"] / spec.kappa - 1) < 0.3
+    toml, spec = ir_view_case(tmp_path / "thin", 0.6, 1)
+    v, _, tau = fit(toml, True)
+    assert tau < 8.0
+    assert v["kappa"] == pytest.approx(spec.kappa, rel=0.25)
+    assert v["C"] == pytest.approx(spec.C, rel=0.25)
+
+
+def test_a_storage_free_reading_leads_the_canopy_node_by_its_relaxation_time(tmp_path):
+    """``[data] ir_storage_free``: the IR reads T + tau dT/dt with tau = c_canopy / (h + 1/R)
+    over each interval, no lead parameter; its adjoint through c_canopy, R_canopy and the
+    energy balance's h law equals central differences of whole solves. Without a canopy or
+    without the IR the case is refused."""
+    model = ('extensions = ["energy_balance", "canopy"]\n[parameters.ir_view]\nvary = true\n'
+             'value = 0.7\n')
+    toml = _twin(tmp_path, model=model)
+    toml.write_text(toml.read_text().replace("ir_sigma = ", "ir_storage_free = true\nir_sigma = "))
+    pb = build_problem(load_case(toml))
+    post = pb.posterior
+    assert "ir_lead" not in pb.space.names
+    rng = np.random.default_rng(6)
+    th = np.repeat(pb.space.initial()[None], 2, 0) * (1 + 0.02 * rng.standard_normal((2, len(pb.space.free))))
+    ll, g, _ = post.loglik_and_grad(th, "adjoint")
+    ref = _central(post, th)
+    np.testing.assert_allclose(g, ref, rtol=0, atol=1e-6 * np.abs(ref).max())
+    for name in ("c_canopy", "R_canopy", "eb_h0", "eb_h1"):
+        j = pb.space.free.index(name)
+        np.testing.assert_allclose(g[:, j], ref[:, j], rtol=1e-4, atol=1e-9 * np.abs(ref).max())
+    p = pb.space.expand(th[:1])
+    m = pb.model
+    coeffs = m.coefficients(p)
+    T_nodes = m.solve(p)
+    from pavement_mcmc.physics.skin import skin_temperature
+
+    skin = skin_temperature(m, T_nodes, coeffs, p)[0]
+    tau = p["c_canopy"][0] / (coeffs.h[0] + 1.0 / p["R_canopy"][0])
+    ir = post.stream("surface_ir")
+    f, Tb = p["ir_view"][0], T_nodes[0, :, 1]
+    want = Tb[1:] + f * (skin[1:] + tau * np.diff(skin) / np.diff(m.meas.t) - Tb[1:]) + p["ir_offset"][0]
+    np.testing.assert_allclose(ir.predict(m, T_nodes, coeffs, p)[0, 1:, 0], want, rtol=1e-10)
+    assert np.max(np.abs(tau * np.diff(skin) / np.diff(m.meas.t))) > 0.1  # the lead matters
+    for bad in ('h = { kind = "uniform", n = 4 }\n', 'extensions = ["energy_balance", "surface_layer"]\n'):
+        t2 = _twin(tmp_path / "bad", model=bad)
+        t2.write_text(t2.read_text().replace("ir_sigma = ", "ir_storage_free = true\nir_sigma = "))
+        with pytest.raises(ValueError, match="ir_storage_free needs"):
+            build_problem(load_case(t2))
