@@ -156,7 +156,8 @@ def _top_fit(problem) -> dict | None:
     except (ValueError, OSError):
         return None
     raw = copy.deepcopy(top_cfg.raw)
-    raw["data"].pop("ir_sigma", None)  # the IR sees the surface: none under a measured top
+    for key in ("ir_sigma", "ir_storage_free"):  # the IR sees the surface: none under a measured top
+        raw["data"].pop(key, None)
     for name in IR_PARAMETERS:  # nor its parameters, which a case may set
         raw.get("parameters", {}).pop(name, None)
     top_cfg = replace(top_cfg, raw=raw)

@@ -24,11 +24,11 @@ import numpy as np
 
 from .autocorr import integrated_time
 from .burnin import choose_burn_in, is_drifting
-from .rhat import split_rhat
+from .rhat import RHAT_ROWS, split_rhat
 from .stationarity import GEWEKE_ROWS, geweke_verdict
 
 #: rows (after thinning) on which a check estimates tau, ESS and drift / split-R-hat
-TAU_ROWS, RHAT_ROWS = 1000, 500
+TAU_ROWS = 1000
 #: fewest kept rows a check estimates anything from
 MIN_KEPT_ROWS = 8
 

@@ -6,7 +6,7 @@ import numpy as np
 
 from ._arrays import _as_3d
 from .autocorr import _sokal_tau
-from .rhat import split_rhat
+from .rhat import RHAT_ROWS, split_rhat
 from .stationarity import geweke
 
 
@@ -22,10 +22,11 @@ def summary(
     names : list of str, optional
         Parameter names (default ``p0, p1, ...``).
     max_steps : int or None
-        Moments and quantiles use every draw; the IACT, split-R-hat and Geweke are computed on
-        the chain thinned to at most ``max_steps`` steps (the IACT rescaled to original steps),
-        because on long runs (75 000 steps x 32 chains x 115 parameters) they take minutes.
-        Thinning by k << tau changes them little; None uses every step.
+        Moments and quantiles use every draw; the IACT and Geweke are computed on the chain
+        thinned to at most ``max_steps`` steps (the IACT rescaled to original steps), because
+        on long runs (75 000 steps x 32 chains x 115 parameters) they take minutes; thinning by
+        k << tau changes them little; None uses every step. Split-R-hat is computed on the
+        stopping rule's rows (:data:`~.rhat.RHAT_ROWS`), so a run and its report judge alike.
 
     Returns
     -------
@@ -46,7 +47,8 @@ def summary(
     tau = _sokal_tau(sub, 5) * k
     n_eff = x.shape[0] * x.shape[1] / tau
     sd = flat.std(axis=0, ddof=1)
-    rhat = split_rhat(sub) if sub.shape[0] >= 4 else np.full(p, np.nan)
+    rsub = x[:: max(1, x.shape[0] // RHAT_ROWS)]  # the stopping rule's rows (RHAT_ROWS)
+    rhat = split_rhat(rsub) if rsub.shape[0] >= 4 else np.full(p, np.nan)
     g = geweke(sub)
     out: dict[str, dict[str, float]] = {}
     for i, name in enumerate(names):

@@ -56,21 +56,26 @@ def test_a_clean_field_twin_is_consistent(tmp_path):
     assert eb.top["diffusivity"] == pytest.approx(eb.diffusivity, rel=0.1)
 
 
+def _with_ir(path, more: str):
+    """The twin's case observing an infrared surface temperature from an extras CSV beside it
+    (in the file, as runs/grass_energy.toml has it, not an override), and ``more`` [data]."""
+    rows = (path.parent / "measurements.csv").read_text().splitlines()
+    time = [r.split(",")[0] for r in rows[1:]]
+    (path.parent / "extras.csv").write_text(
+        "time,T_surf_IR\n" + "".join(f"{t},{15.0 + 0.01 * i:.2f}\n" for i, t in enumerate(time)))
+    path.write_text(path.read_text().replace(
+        "[data]\n", '[data]\nextras = "extras.csv"\nir_sigma = 0.5\n' + more, 1))
+    return path
+
+
 def test_the_measured_top_fit_of_a_case_that_observes_the_infrared_surface(tmp_path):
     """A case with ``ir_sigma`` (the IR surface temperature observed): the energy check's
     measured-top fit has no surface, so it leaves the IR out; it raised "T_surf_IR needs the
     surface energy balance at the top" and `diagnose runs/grass_energy.toml` stopped there; with
     the stream's parameter set in ``[parameters]`` (``ir_view``, as the case sets it) it
     refused "unknown parameter 'ir_view'"."""
-    twin = get_twin("field-none-s204")
-    path = write_twin(twin, tmp_path / "ir")
-    rows = (tmp_path / "ir" / "measurements.csv").read_text().splitlines()
-    time = [r.split(",")[0] for r in rows[1:]]
-    (tmp_path / "ir" / "extras.csv").write_text(
-        "time,T_surf_IR\n" + "".join(f"{t},{15.0 + 0.01 * i:.2f}\n" for i, t in enumerate(time)))
-    text = path.read_text()  # in the file, as runs/grass_energy.toml has it (not an override)
-    path.write_text(text.replace("[data]\n", '[data]\nextras = "extras.csv"\nir_sigma = 0.5\n', 1)
-                    + "\n[parameters.ir_view]\nvary = true\n")  # the stream's own parameter
+    path = _with_ir(write_twin(get_twin("field-none-s204"), tmp_path / "ir"), "")
+    path.write_text(path.read_text() + "\n[parameters.ir_view]\nvary = true\n")  # the stream's own
     cfg = load_case(path, FAST)
     pb = build_problem(cfg)
     assert pb.posterior.stream("surface_ir") is not None
@@ -92,6 +97,20 @@ def test_the_measured_top_fit_of_a_canopy_model_leaves_the_canopy_out(tmp_path):
     eb = energy_balance(pb, refit(pb).values())
     assert eb.top is not None and eb.top["from_plate"]
     assert eb.top["diffusivity"] == pytest.approx(twin.spec.kappa / twin.spec.C, rel=0.1)
+
+
+def test_the_measured_top_fit_of_a_storage_free_ir_case(tmp_path):
+    """``[data] ir_storage_free`` (the IR reads a surface without storage above the canopy
+    node, as runs/grass_energy.toml has it): the measured-top fit leaves the IR and the canopy
+    out, and it left the flag in, so the check refused "ir_storage_free needs ir_sigma" and
+    `diagnose` stopped there."""
+    path = _with_ir(write_twin(get_twin("field-thatch-s203"), tmp_path / "sf"),
+                    "ir_storage_free = true\n")
+    cfg = load_case(path, FAST, additions={"model": {"extensions": ["energy_balance", "canopy"]}})
+    pb = build_problem(cfg)
+    assert pb.posterior.stream("surface_ir").storage_free
+    eb = energy_balance(pb, refit(pb).values())
+    assert eb.top is not None and 0.2e-6 < eb.top["diffusivity"] < 2e-6
 
 
 def _eb(findings, top=None, plates=None):
