@@ -33,7 +33,7 @@ from ..physics.materials import check_values, declared_material
 from ..posterior import build_problem
 from ..posterior.surface_ir import PARAMETER_NAMES as IR_PARAMETERS
 from .fitting import refit
-from .ground import GROUND_HOOKS, where_acts
+from .ground import ground_extensions
 from .tower import TOL, tower_ground_share
 
 #: shares of the net radiation that reach the ground at midday, by surface (Oke 1987, ch. 2-4)
@@ -161,7 +161,7 @@ def _top_fit(problem) -> dict | None:
     for name in IR_PARAMETERS:  # nor its parameters, which a case may set
         raw.get("parameters", {}).pop(name, None)
     top_cfg = replace(top_cfg, raw=raw)
-    exts = [e for e in problem.model.extensions if where_acts(e) in GROUND_HOOKS]
+    exts = ground_extensions(problem.model)
     pb = build_problem(top_cfg, extensions=exts)
     f = refit(pb).values()
     return {"kappa": f["kappa"], "C": f["C"], "diffusivity": f["kappa"] / f["C"],

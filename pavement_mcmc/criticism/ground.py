@@ -69,7 +69,8 @@ class GroundForecast:
         return dict(self.__dict__)
 
 
-def _ground_extensions(model) -> list:
+def ground_extensions(model) -> list:
+    """The model's extensions that act in the ground or a sensor (:data:`GROUND_HOOKS`)."""
     return [e for e in model.extensions if where_acts(e) in GROUND_HOOKS]
 
 
@@ -92,7 +93,7 @@ def ground_model(model, values: dict[str, float]) -> tuple[Model, dict[str, np.n
     gm = replace(meas, T_obs=T_obs, depths=depths, flux_depths=None,
                  G_obs=None).with_measured_top()
     grid = Grid.from_times(gm.bottom_depth, gm.t)
-    g = Model(gm, grid, model.h_basis, _ground_extensions(model), scheme=model.scheme,
+    g = Model(gm, grid, model.h_basis, ground_extensions(model), scheme=model.scheme,
               plates=False)
     space = g.parameter_space()
     vals = {n: values.get(n, space[n].value) for n in space.names}

@@ -47,7 +47,7 @@ from ..data import ConfigError, record_times
 from ..data.times import format_time, parse_time, seconds_between
 from ..posterior.problem import case_measurements
 from .forecast import forecast, gain
-from .ground import GROUND_HOOKS, where_acts
+from .ground import ground_extensions
 from .point import case_config, case_problem
 
 #: one-sided level of the sign test that names the law
@@ -279,8 +279,7 @@ def _rolling(base, law, window_h, horizon_h, step_h, start_h, days, max_nfev, pr
 def _also_added(base_model, law_model) -> list[str]:
     """Names of the ground or sensor extensions of ``law_model`` that ``base_model`` lacks."""
     have = {e.name for e in base_model.extensions}
-    return [e.name for e in law_model.extensions
-            if where_acts(e) in GROUND_HOOKS and e.name not in have]
+    return [e.name for e in ground_extensions(law_model) if e.name not in have]
 
 
 def _also_observed(base_posterior, law_posterior) -> list[str]:

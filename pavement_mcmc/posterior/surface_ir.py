@@ -207,10 +207,8 @@ def _lead(T: np.ndarray, t: np.ndarray, tau: np.ndarray
 
 
 def _canopy(p) -> tuple[np.ndarray, np.ndarray]:
-    """``(c_canopy, R_canopy)`` as (n_sets, 1) columns; refused without a ``canopy``."""
-    if "c_canopy" not in p or "R_canopy" not in p:
-        raise ValueError("[data] ir_storage_free needs the canopy extension: the surface the IR "
-                         "sees leads the canopy's skin node by that node's relaxation time")
+    """``(c_canopy, R_canopy)`` as (n_sets, 1) columns (``build_problem`` refuses
+    ``ir_storage_free`` without a ``canopy``)."""
     return (np.asarray(p["c_canopy"], float)[:, None], np.asarray(p["R_canopy"], float)[:, None])
 
 
