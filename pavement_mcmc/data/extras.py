@@ -14,6 +14,8 @@ column         unit          meaning
 ``LW_in``      W m-2         incoming (downwelling) long-wave radiation, > 0
 ``LW_out``     W m-2         emitted + reflected (upwelling) long-wave radiation, > 0
 ``LE``, ``H``  W m-2         measured latent and sensible heat flux, upward positive
+``SWC``        m3 m-3        water content of the top soil, 0-0.7 (read by
+                             ``energy_balance_swc``)
 =============  ============  ==========================================================
 
 They may be columns of the case CSV or of a second CSV named by ``[data] extras`` (comma
@@ -54,7 +56,7 @@ __all__ = ["EXTRA_ROLES", "check_extra", "merge_extras"]
 
 #: the optional named series and their units
 EXTRA_ROLES = {"T_surf_IR": "degC", "RH": "%", "T_dew": "degC", "SW_in": "W m-2", "SW_out": "W m-2",
-               "LW_in": "W m-2", "LW_out": "W m-2", "LE": "W m-2", "H": "W m-2"}
+               "LW_in": "W m-2", "LW_out": "W m-2", "LE": "W m-2", "H": "W m-2", "SWC": "m3 m-3"}
 #: times of the two files closer than this (s) are the same time
 TIME_TOL = 0.5
 
@@ -73,6 +75,11 @@ def check_extra(table: _Table, col: int, arr: np.ndarray, idx: np.ndarray, role:
             raise table.error(f"largest value {float(np.max(arr)):g}: looks like a fraction, "
                               "RH is in % (0-100)", table.header[col], int(idx[0]))
         _check_range(table, col, arr, idx, 0.0, 105.0, "%")
+    elif role == "SWC":
+        if arr.size and float(np.max(arr)) > 1.5:
+            raise table.error(f"largest value {float(np.max(arr)):g}: looks like a percentage, "
+                              "SWC is in m3 m-3 (0-0.7)", table.header[col], int(idx[0]))
+        _check_range(table, col, arr, idx, 0.0, 0.7, "m3 m-3")
     elif role in ("LE", "H"):
         _check_range(table, col, arr, idx, -Q_MAX, Q_MAX, "W m-2")
     else:  # radiation components: night-time offsets of a few W m-2 below 0 are allowed

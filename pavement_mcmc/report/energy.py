@@ -8,7 +8,6 @@ import html
 
 from ..criticism.tower import tower_check, tower_fluxes
 from ..physics.catalogue.energy import MIDDAY_NAMES, EnergyBalance, energy_partition
-from ..physics.catalogue.penman import EnergyBalancePM
 
 TITLE = "Surface energy balance (H, LE, G)"
 
@@ -24,9 +23,7 @@ def energy_section(problem, view, n_draws: int = 100):
     rows = "".join(f"<tr><td>{html.escape(MIDDAY_NAMES[k])}</td><td>{m:.2f}</td><td>{lo:.2f}</td>"
                    f"<td>{hi:.2f}</td></tr>" for k, (m, lo, hi) in part.summary().items())
     law = next(e for e in problem.model.extensions if isinstance(e, EnergyBalance))
-    latent = ("Penman–Monteith: the air's vapour pressure deficit from the relative humidity "
-              "and a surface resistance" if isinstance(law, EnergyBalancePM) else
-              "Priestley–Taylor on the net radiation")
+    latent = law.latent_form
     frag = ("<p>The net radiation Rn (measured) split by the fitted laws into sensible heat H "
             "(bulk transfer with the wind, or the no-wind fallback), latent heat LE "
             f"({latent}) and the heat flux into the ground G = "

@@ -169,3 +169,23 @@ def test_a_plate_from_the_second_file_is_a_plate(tmp_path):
         _extras_csv(tmp_path, header="time,T_surf_IR,G_2cm,WS_2m")
         read_csv_case(_case_csv(tmp_path), sigma=0.1, extras=tmp_path / "extras.csv",
                       columns={"T_5cm": "G_2cm"})
+
+
+
+def _swc_csv(tmp_path: Path, scale: float, name: str = "extras.csv") -> Path:
+    """Rows every 15 min; SWC_5cm = scale x (0.05 + minute / 10000)."""
+    rows = [f"{_stamp(15 * i)},{scale * (0.05 + 15 * i / 1e4):.5f}" for i in range(2 * N + 4)]
+    path = tmp_path / name
+    path.write_text("time,SWC_5cm\n" + "\n".join(rows) + "\n")
+    return path
+
+
+def test_soil_water_is_read_in_m3_per_m3_and_a_percentage_is_refused(tmp_path):
+    """``SWC`` (renamed from a source's column) is merged like the other extras; the same
+    series in % (the source's unit) is refused, naming the column and the unit."""
+    m = read_csv_case(_case_csv(tmp_path), sigma=0.1, columns={"SWC_5cm": "SWC"},
+                      extras=_swc_csv(tmp_path, 1.0), window_hours=(1.0, 4.0))
+    np.testing.assert_allclose(m.extras["SWC"], 0.05 + (60 + m.t / 60) / 1e4, atol=1e-5)
+    with pytest.raises(DataError, match=r"SWC_5cm.*looks like a percentage.*m3 m-3"):
+        read_csv_case(_case_csv(tmp_path), sigma=0.1, columns={"SWC_5cm": "SWC"},
+                      extras=_swc_csv(tmp_path, 100.0, "pct.csv"), window_hours=(1.0, 4.0))

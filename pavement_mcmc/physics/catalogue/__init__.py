@@ -10,4 +10,4 @@ define them: ``signals`` names the residual patterns that point at the effect (k
 quick refit from the fitted values ``base`` of the model without the effect.
 """
 
-from . import canopy, energy, layers, material, penman, sensors, shading, surface  # noqa: F401  (register the shipped effects)
+from . import canopy, energy, layers, material, penman, sensors, shading, soil_water, surface  # noqa: F401  (register the shipped effects)

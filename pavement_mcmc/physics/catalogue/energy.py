@@ -31,7 +31,8 @@ interval is gone), so the model can predict a day it has not seen from its forci
   vary = false``) instead of leaving it at the bound. This form does not use the air's
   humidity: a drying surface shows as a falling ``eb_alpha`` from day to day. Where the record
   has the relative humidity, ``energy_balance_pm`` (:mod:`.penman`) puts the evaporative
-  demand in (Penman–Monteith, one surface resistance a day).
+  demand in (Penman–Monteith, one surface resistance a day); where it has the top soil's water
+  content, ``energy_balance_swc`` (:mod:`.soil_water`) lets the latent heat follow it.
 
 A grass or thatch layer is added by listing ``canopy`` (a skin node with heat capacity above
 the soil, which the balance acts on) or ``surface_layer`` (a pure resistance: it then damps
@@ -81,6 +82,8 @@ class EnergyBalance(Extension):
     replaces_h = True
     candidate = False  # it nests wind_convection and evapotranspiration: tried only when named
     signals = ("corr:q_net", "amplitude", "corr:wind", "corr:T_air-T_s")
+    #: the latent heat's law in a few words (the report's caption)
+    latent_form = "Priestley–Taylor on the net radiation"
 
     def alpha_names(self, meas) -> list[str]:
         """``eb_alpha_1 .. eb_alpha_D``, one per day of the window."""

@@ -107,6 +107,8 @@ class EnergyBalancePM(EnergyBalance):
     name = "energy_balance_pm"
     hint = ("the net radiation does not all enter the ground: sensible heat (with the wind) and "
             "latent heat (the air's humidity and a surface resistance) leave the surface")
+    latent_form = ("Penman–Monteith: the air's vapour pressure deficit from the relative "
+                   "humidity and a surface resistance")
 
     def rs_names(self, meas) -> list[str]:
         """``eb_rs_1 .. eb_rs_D``, one per day of the window."""
