@@ -8,8 +8,10 @@ ground, sensor depth errors and biases, wind-driven convection, evaporation afte
 temperature-dependent conductivity, a radiation factor; a thatch layer and
 evapotranspiration; and the off-catalogue sensor lag, shading and buried heat source) can be
 switched on with realistic default strengths, see :mod:`pavement_mcmc.synthetic.effects`.
-Heat-flux plates (``flux_depths_cm``) add ``G_<d>cm`` columns. Named, reproducible twins with
-the inversion settings to use on them are in :mod:`pavement_mcmc.synthetic.corpus`.
+Heat-flux plates (``flux_depths_cm``) add ``G_<d>cm`` columns; a top-soil water content
+(``swc_fc``) adds an ``SWC`` column and a latent heat it limits (:mod:`.soil_water`). Named,
+reproducible twins with the inversion settings to use on them are in
+:mod:`pavement_mcmc.synthetic.corpus`.
 
 >>> columns, truth = simulate(SyntheticSpec(seed=1, effects={"two_layer": {}}))
 >>> meas = to_measurements(columns, sigma=truth.sigma)

@@ -16,7 +16,7 @@ from .effects import EFFECTS, REFERENCE_KEYS
 from .simulate import SyntheticSpec, Truth, simulate
 
 # decimals of each column in the CSV (those of the shipped reference case)
-_DECIMALS = {"T_air": 2, "q_net": 1, "wind": 2, "rain": 1, "RH": 1}
+_DECIMALS = {"T_air": 2, "q_net": 1, "wind": 2, "rain": 1, "RH": 1, "SWC": 3}
 _T_COLUMN = re.compile(r"^T_(\d+(?:\.\d+)?)cm$")
 
 
@@ -32,7 +32,7 @@ def write_case(spec: SyntheticSpec, directory: str | Path, name: str | None = No
     Returns
     -------
     Path of the written measurements.csv. Temperatures and T_air have 2 decimals, q_net and
-    rain 1, wind 2, as in the reference case, heat-flux plates ``G_<d>cm`` 1. truth.json has
+    rain 1, wind 2, as in the reference case, heat-flux plates ``G_<d>cm`` 1, ``SWC`` 3. truth.json has
     the reference case's keys (kappa, C, sigma, h_true_obs, one key per catalogue effect, null
     when absent) plus ``effects`` (every hidden effect -> parameters), ``spec`` and the series
     of :func:`truth_record`.
@@ -74,7 +74,8 @@ def truth_record(spec: SyntheticSpec, truth: Truth, name: str) -> dict:
 
     Besides the reference keys: ``effects`` (every hidden effect, e.g. ``surface_layer`` with
     its derived ``R_surface``, ``evapotranspiration`` with ``et_alpha``), ``q_et_obs`` (true
-    evapotranspiration LE at each row, W m-2, when that effect is on), ``flux_true_obs``
+    evapotranspiration LE at each row, W m-2, when that effect is on, or the soil-water limited
+    one of ``swc_fc``), ``swc_true_obs`` (true top-soil water content, m3 m-3), ``flux_true_obs``
     (``G_<d>cm`` -> true conductive flux at each row, W m-2, positive downward, before the
     plate's factor and noise), ``soil_top_m`` (thatch thickness, m), ``grid`` (the simulator's
     cell size and time step) and ``spec``.
@@ -87,8 +88,10 @@ def truth_record(spec: SyntheticSpec, truth: Truth, name: str) -> dict:
     record["h_true_obs"] = [round(float(v), 3) for v in truth.h_obs]
     record["rmse_noise_only"] = truth.noise_rms
     record["effects"] = truth.effects
-    if "evapotranspiration" in truth.effects:
+    if "evapotranspiration" in truth.effects or truth.swc is not None:
         record["q_et_obs"] = [round(float(v), 2) for v in truth.q_et]
+    if truth.swc is not None:
+        record["swc_true_obs"] = [round(float(v), 4) for v in truth.swc]
     if truth.flux:
         record["flux_true_obs"] = {k: [round(float(v), 2) for v in s] for k, s in truth.flux.items()}
     record["soil_top_m"] = truth.soil_top

@@ -21,6 +21,7 @@ from .outputs import (
     tower_columns,
 )
 from .processes import penman_monteith_terms, rain_per_row, relative_humidity
+from .soil_water import check_soil_water, recorded_swc, soil_water_terms
 from .weather import make_weather
 
 PAPER_H_KNOTS = (16.67, 6.43, 10.29, 14.33, 12.92)
@@ -97,6 +98,16 @@ class SyntheticSpec:
         surface below (:func:`~.outputs.ir_column`); without a layer, or at 1, it reads the
         column's top. A ``T_surf_IR`` column (degC), from its own random stream.
     ir_offset, ir_noise : the thermometer's offset and noise sd, degC.
+    swc_fc : field capacity theta_fc (m3 m-3) of a top-soil water content series (0: none): an
+        ``SWC`` column (m3 m-3, +-0.01 noise from its own random stream) of a 5 cm layer wetted
+        by the rain and ``swc_events`` and drying down exponentially, and a latent heat
+        ``swc_alpha beta(theta) s/(s + gamma) max(R_n - G, 0)`` with the Noilhan-Planton
+        beta (:mod:`.soil_water`; not with ``evapotranspiration`` or ``surface_resistance``).
+    swc_alpha : Priestley-Taylor coefficient of that latent heat (0: SWC recorded, no latent
+        heat).
+    swc_tau_h : e-folding time of the dry-down, h.
+    swc_events : wettings ``((hour, mm), ...)`` besides the rain, hours from the window start
+        (negative: in the spin-up, so that a window can start wet).
     """
 
     kappa: float = 1.31
@@ -133,6 +144,10 @@ class SyntheticSpec:
     ir_view: float = 0.0
     ir_offset: float = 1.0
     ir_noise: float = 0.3
+    swc_fc: float = 0.0
+    swc_alpha: float = 1.0
+    swc_tau_h: float = 36.0
+    swc_events: tuple = ()
 
 
 @dataclass(frozen=True)
@@ -160,6 +175,8 @@ class Truth:
     profiles : (n_obs, n_nodes) true temperature at every node at each row, degC.
     soil_top : depth of the soil surface in the simulated column, m (the ``surface_layer``
         thickness, else 0): nominal depth d sits at ``z = soil_top + d``.
+    swc : (n_obs,) true top-soil water content at each row (``swc_fc``), m3 m-3; its latent
+        heat is ``q_et``.
     dz : cell size of the resolved zone, m.
     dt : solver time step, s.
     """
@@ -183,6 +200,7 @@ class Truth:
     soil_top: float = 0.0
     dz: float = 0.0
     dt: float = 0.0
+    swc: np.ndarray | None = None
 
 
 def temperature_columns(spec: SyntheticSpec) -> list[str]:
@@ -238,6 +256,7 @@ def _check(spec: SyntheticSpec) -> tuple[np.ndarray, float]:
             or "evapotranspiration" in (spec.effects or {})):
         raise ValueError("surface_resistance (Penman-Monteith latent heat) needs vapour_kPa > 0, "
                          "a resistance >= 0 and no 'evapotranspiration' effect")
+    check_soil_water(spec)
     if not (spec.plate_factor > 0 and spec.plate_rel_noise >= 0 and spec.plate_abs_noise >= 0):
         raise ValueError("plate_factor must be positive, plate_rel_noise and plate_abs_noise >= 0")
     return depths, bottom
@@ -285,6 +304,9 @@ def simulate(spec: SyntheticSpec) -> tuple[dict[str, np.ndarray], Truth]:
         pt_factor, q_vapour = penman_monteith_terms(fo.T_air, fo.h, spec.vapour_kPa,
                                                     spec.surface_resistance)
         q_sink = q_sink + q_vapour
+    if spec.swc_fc > 0:  # the top soil's water content and the latent heat it limits
+        theta, swc_factor = soil_water_terms(spec, clock, rain_all, fo.T_air)
+        pt_factor = swc_factor if swc_factor is not None else pt_factor
     ground, run = _march_ground(spec, effects, depths, bottom, dz, weather, clock, fo, q_sink,
                                 pt_factor)
     profiles = run.profiles[clock.n_spin:][keep]
@@ -326,13 +348,17 @@ def simulate(spec: SyntheticSpec) -> tuple[dict[str, np.ndarray], Truth]:
                              f"(the share of the view it stops), got {spec.ir_view}")
         columns["T_surf_IR"] = ir_column(spec, z, profiles, ground.soil_top,
                                          np.random.default_rng(seq.spawn(1)[0]))
+    swc = None
+    if spec.swc_fc > 0:  # its own random stream too
+        swc = theta[clock.n_spin:][keep]
+        columns["SWC"] = recorded_swc(swc, np.random.default_rng(seq.spawn(1)[0]))
 
     truth = Truth(
         kappa=spec.kappa, C=spec.C, sigma=spec.sigma, h_obs=fo.h[lv], effects=effects, t=t_rows,
         T_clean=T_clean, z=z, T_initial=profiles[0].copy(), q_ground=q_ground, q_evap=q_evap_rows,
         noise_rms=float(np.sqrt(np.mean((spec.sigma * noise[:, : depths.size]) ** 2))),
         seed=spec.seed, q_et=run.latent[lv], flux=flux_true, profiles=profiles,
-        soil_top=ground.soil_top, dz=dz, dt=clock.dt,
+        soil_top=ground.soil_top, dz=dz, dt=clock.dt, swc=swc,
     )
     return columns, truth
 
