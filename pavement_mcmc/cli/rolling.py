@@ -38,6 +38,10 @@ def add_parser(sub) -> None:
     p.add_argument("--from", dest="start", default="0h", metavar="DUR",
                    help="the first window start after the record's first row (default 0h)")
     p.add_argument("--days", type=int, metavar="N", help="number of windows (default: all that fit)")
+    p.add_argument("--one-start", action="store_true",
+                   help="fit each window from the case's values alone (the rule before 30 Nov "
+                   "2026; default: also from the previous window's fit and every extension's "
+                   "starts, keeping the best)")
     p.add_argument("--figure", metavar="PNG",
                    help="the figure (default: <base>_rolling_<law>.png beside the base TOML)")
     add_json_flag(p)
@@ -57,7 +61,7 @@ def run(args) -> int:
                            horizon_h=parse_duration(args.horizon),
                            step_h=parse_duration(args.step),
                            start_h=parse_duration(args.start, allow_zero=True),
-                           days=args.days, progress=progress)
+                           days=args.days, one_start=args.one_start, progress=progress)
     base = Path(args.base.split("+")[0])
     law = re.sub(r"[^\w.+-]", "_", Path(args.law).name.replace(".toml", ""))
     fig_path = (Path(args.figure) if args.figure

@@ -184,3 +184,21 @@ def test_the_refits_run_with_one_blas_thread_whatever_the_caller_allows(tmp_path
         rolling_forecast(case, f"{case}+{LAW}", days=1, progress=lambda *a: seen.extend(
             p["num_threads"] for p in threadpool_info() if p["user_api"] == "blas"))
     assert seen and set(seen) == {1}, seen
+
+
+REPO = __import__("pathlib").Path(__file__).resolve().parents[2]
+DESERT = REPO.parent / "shared" / "data" / "soilvue_utah" / "measurements.csv"
+
+
+@pytest.mark.skipif(not DESERT.is_file(), reason=f"the shared desert record is not here ({DESERT})")
+def test_a_window_the_cases_values_fit_badly_is_fitted_from_the_other_starts():
+    """The desert base with its layer on the window of 10 September 2025 (hour 4632): from the
+    case's values alone its MAP stops at an in-sample RMSE of 1.455 degC (the rule before 30
+    Nov), from the extensions' starts it reaches 0.16 degC; the count must not credit a law
+    with a base fit that failed (module doc, *Starts*)."""
+    base = str(REPO / "runs" / "desert.toml") + "+two_layer"
+    one = rolling_forecast(base, base, start_h=4632, days=1, one_start=True)
+    best = rolling_forecast(base, base, start_h=4632, days=1)
+    assert one.days[0].base_fit > 1.0
+    assert best.days[0].base_fit < 0.3
+    assert best.days[0].base_rmse == best.days[0].law_rmse  # the same case, the same fit
