@@ -39,9 +39,9 @@ def add_parser(sub) -> None:
                    help="the first window start after the record's first row (default 0h)")
     p.add_argument("--days", type=int, metavar="N", help="number of windows (default: all that fit)")
     p.add_argument("--one-start", action="store_true",
-                   help="fit each window from the case's values alone (the rule before 30 Nov "
-                   "2026; default: also from the previous window's fit and every extension's "
-                   "starts, keeping the best)")
+                   help="fit each window from the case's values alone (the earlier rule, to "
+                   "reproduce its figures; default: also from the previous window's fit and "
+                   "every extension's starts, keeping the lowest training objective)")
     p.add_argument("--figure", metavar="PNG",
                    help="the figure (default: <base>_rolling_<law>.png beside the base TOML)")
     add_json_flag(p)

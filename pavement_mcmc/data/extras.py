@@ -76,14 +76,30 @@ def check_extra(table: _Table, col: int, arr: np.ndarray, idx: np.ndarray, role:
                               "RH is in % (0-100)", table.header[col], int(idx[0]))
         _check_range(table, col, arr, idx, 0.0, 105.0, "%")
     elif role == "SWC":
-        if arr.size and float(np.max(arr)) > 1.5:
-            raise table.error(f"largest value {float(np.max(arr)):g}: looks like a percentage, "
-                              "SWC is in m3 m-3 (0-0.7)", table.header[col], int(idx[0]))
+        # judged on the whole column: a dry window in % (0.2 % read as 0.2 m3 m-3) looks valid
+        top, row = _largest(table, col)
+        if top > 1.5:
+            raise table.error(f"largest value in the file {top:g}: looks like a percentage, "
+                              "SWC is in m3 m-3 (0-0.7)", table.header[col], row)
         _check_range(table, col, arr, idx, 0.0, 0.7, "m3 m-3")
     elif role in ("LE", "H"):
         _check_range(table, col, arr, idx, -Q_MAX, Q_MAX, "W m-2")
     else:  # radiation components: night-time offsets of a few W m-2 below 0 are allowed
         _check_range(table, col, arr, idx, -50.0, Q_MAX, "W m-2")
+
+
+def _largest(table: _Table, col: int) -> tuple[float, int]:
+    """The largest finite number in column ``col`` of the whole file, and its row (cells that
+    are not numbers are left to the window's own checks)."""
+    top, row = -np.inf, 0
+    for i, r in enumerate(table.rows):
+        try:
+            v = float(r[col])
+        except (ValueError, IndexError):
+            continue
+        if np.isfinite(v) and v > top:
+            top, row = v, i
+    return top, row
 
 
 def merge_extras(table: _Table, stamps: np.ndarray, t: np.ndarray, columns: Mapping[str, str],

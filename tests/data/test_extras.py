@@ -189,3 +189,11 @@ def test_soil_water_is_read_in_m3_per_m3_and_a_percentage_is_refused(tmp_path):
     with pytest.raises(DataError, match=r"SWC_5cm.*looks like a percentage.*m3 m-3"):
         read_csv_case(_case_csv(tmp_path), sigma=0.1, columns={"SWC_5cm": "SWC"},
                       extras=_swc_csv(tmp_path, 100.0, "pct.csv"), window_hours=(1.0, 4.0))
+    # a dry window of a file in %: 0.2-0.5 % reads as a plausible 0.2-0.5 m3 m-3; the rest of
+    # the file (a wet spell of 30 %) shows the unit
+    rows = [f"{_stamp(15 * i)},{0.2 + 0.01 * i if i < 20 else 30.0:.3f}" for i in range(2 * N + 4)]
+    dry = tmp_path / "dry_pct.csv"
+    dry.write_text("time,SWC_5cm\n" + "\n".join(rows) + "\n")
+    with pytest.raises(DataError, match=r"SWC_5cm.*data row 21.*largest value in the file 30"):
+        read_csv_case(_case_csv(tmp_path), sigma=0.1, columns={"SWC_5cm": "SWC"}, extras=dry,
+                      window_hours=(1.0, 4.0))
