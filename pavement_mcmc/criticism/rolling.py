@@ -26,15 +26,15 @@ What the count credits: everything the law's case has that the base's has not. A
 also adds a ground or sensor effect (:data:`~.ground.GROUND_HOOKS`: ``two_layer``, a sensor's
 bias...) is credited for both, so the result lists those (:attr:`Rolling.also_added`) and the
 verdict gives the command that tests the surface law alone: the base with the same ground
-effects. On the SoilVUE desert the energy balance with a shadow wins 20 of 27 July days against
-the one-layer base, 14 of 27 against the base with ``two_layer`` (``docs/VALIDATION.md`` §5).
+effects. On the SoilVUE desert the energy balance with a shadow wins 19 of 27 July days against
+the one-layer base, 13 of 27 against the base with ``two_layer`` (``docs/VALIDATION.md`` §5).
 **Starts.** Each window's MAP refit starts from the case's values, from the previous window's
 fit and from every extension's ``start_values``, and keeps the lowest training objective
 (:func:`fit_starts`). From the case's values alone (``one_start``) the desert base
 ``desert.toml+two_layer`` stopped on 16 of the 43 windows from 15 August at an in-sample RMSE
-of 0.63–1.46 °C where these starts reach 0.06–0.27 °C (objective 60 948 against 765 on the
+of 0.63–1.45 °C where these starts reach 0.06–0.28 °C (objective 60 948 against 765 on the
 window of 10 September), and a soil-water law was named on 30 of the 43 days; from these
-starts it wins 23 (``docs/VALIDATION.md`` §5): the count had credited the law with days on
+starts it wins 22 (``docs/VALIDATION.md`` §5): the count had credited the law with days on
 which the base's fit failed, not its forecast. More starts lower the chance of such a failure,
 they do not rule it out: a window where one side fits in sample at more than
 :data:`FIT_RATIO` times the other's RMSE is marked in the table (``fit?``) and counted in the
