@@ -11,7 +11,11 @@ LE = alpha s/(s+gamma) max(R_n, 0)) against the free h of the twin's Case C form
 
 - clean twins, whose h(t) is a diurnal shape drawn day by day from knots that no law of wind or
   radiation makes: the false-naming rate;
-- wind-driven twins (``wind_convection``: h = a + b u, which the law contains): the power.
+- wind-driven twins (``wind_convection``: h = a + b u, which the law contains): the power;
+- still twins (``--still``): h a constant 10 W m-2 K-1 and no wind column, the law's no-wind
+  fallback exactly (H = eb_h0 (T_s - T_air)) and no latent heat, as over a dry, windless
+  site: the power where the balance adds no forcing the free h lacks and can win only by
+  having fewer parameters.
 
     PYTHONPATH=. NUMBA_NUM_THREADS=1 OMP_NUM_THREADS=1 python benchmarks/rolling_null.py \
         --out rolling_null.jsonl [--clean 40] [--wind 10] [--clean-from 600] [--wind-from 700]
@@ -20,6 +24,7 @@ LE = alpha s/(s+gamma) max(R_n, 0)) against the free h of the twin's Case C form
                                                           a law nearly right)
     ... --law energy_balance_window+shading --shade 10    (a law with a daily shadow: its null
                                                           on clean twins, its power on shadows)
+    ... --clean 0 --wind 0 --still 10                    (the power on still twins)
     PYTHONPATH=. python benchmarks/rolling_null.py --report docs/campaign/rolling_null_s600.jsonl.gz
 
 One JSON line per twin (resumed: twins in ``--out`` are skipped). Without OMP_NUM_THREADS=1
@@ -33,6 +38,7 @@ import gzip
 import json
 import tempfile
 import time
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -40,6 +46,7 @@ import numpy as np
 from pavement_mcmc.criticism.calibration import binomial_interval
 from pavement_mcmc.criticism.rolling import LEVEL, rolling_forecast
 from pavement_mcmc.synthetic.corpus import forecast_twins, write_twin
+from pavement_mcmc.synthetic.io import drop_columns
 
 #: days of each twin and 72 h windows a day apart in them (as the grass record's 15)
 DAYS, WINDOWS = 18, 15
@@ -49,6 +56,21 @@ DAY_H = 24.0
 #: docs/VALIDATION.md §5): F summed, days the law forecasts better of 15, and the mean
 #: log(MSE_base / MSE_law) per day
 GRASS_SUM, GRASS_WINS, GRASS_LOG_RATIO = 48.3, 11, 0.78
+#: the still twins' constant h, W m-2 K-1 (the forecast twins' diurnal knots run 7-16)
+STILL_H = 10.0
+
+
+def still_twins(seeds) -> list:
+    """Clean forecast twins with a constant h and (in :func:`one_twin`) no wind column; the
+    corpus's categories have none for them, their names say "still" (:func:`is_still`)."""
+    return [replace(t, name=t.name.replace("clean", "still"),
+                    description=t.description + "; h constant, no wind",
+                    spec=replace(t.spec, h_knots=(STILL_H,) * len(t.spec.h_knots)))
+            for t in forecast_twins((), hours=DAYS * DAY_H, input_sigma=True, seeds=tuple(seeds))]
+
+
+def is_still(name: str) -> bool:
+    return name.startswith("forecast-still")
 
 
 def one_twin(twin, root: Path, base_ext: str | None = None, law: str = CANDIDATE) -> dict:
@@ -56,6 +78,8 @@ def one_twin(twin, root: Path, base_ext: str | None = None, law: str = CANDIDATE
     (:func:`pavement_mcmc.criticism.rolling.rolling_forecast`, as ``pavement-mcmc rolling``)."""
     t0 = time.perf_counter()
     case = write_twin(twin, root / twin.name)
+    if is_still(twin.name):  # a windless record: the law takes its no-wind fallback
+        drop_columns(case.parent / "measurements.csv", ("wind",))
     base = f"{case}+{base_ext}" if base_ext else str(case)
     res = rolling_forecast(base, f"{case}+{law}", days=WINDOWS)
     days = [{"F": d.F, "base": d.base_rmse, "cand": d.law_rmse, "base_in": d.base_fit,
@@ -67,11 +91,13 @@ def one_twin(twin, root: Path, base_ext: str | None = None, law: str = CANDIDATE
 
 
 def report(records: list[dict]) -> None:
-    clean = [r for r in records if r["category"] == "clean"]
+    still = [r for r in records if is_still(r["twin"])]
+    clean = [r for r in records if r["category"] == "clean" and not is_still(r["twin"])]
     other = [r for r in records if r["category"] != "clean" and not r.get("base_ext")]
     truth = [r for r in records if r["category"] != "clean" and r.get("base_ext")]
     for name, rows in (("clean", clean), ("hidden effect", other),
-                       ("hidden effect, its law in the base", truth)):
+                       ("hidden effect, its law in the base", truth),
+                       ("still (h constant, no wind: the law's fallback is the truth)", still)):
         if not rows:
             continue
         s = np.array([r["F_sum"] for r in rows])
@@ -114,6 +140,9 @@ def main(argv=None) -> None:
     ap.add_argument("--wind-from", type=int, default=700, help="first wind seed (700)")
     ap.add_argument("--shade", type=int, default=0, help="shading twins (default 0)")
     ap.add_argument("--shade-from", type=int, default=900, help="first shading seed (900)")
+    ap.add_argument("--still", type=int, default=0,
+                    help=f"still twins: h {STILL_H:g} W m-2 K-1, no wind column (default 0)")
+    ap.add_argument("--still-from", type=int, default=1000, help="first still seed (1000)")
     ap.add_argument("--law", default=CANDIDATE, metavar="EXT[+EXT]",
                     help=f"the law's extensions (default {CANDIDATE}; e.g. "
                     f"{CANDIDATE}+shading)")
@@ -134,7 +163,8 @@ def main(argv=None) -> None:
              + forecast_twins(("wind_convection",), hours=hours, input_sigma=True,
                               seeds=tuple(range(a.wind_from, a.wind_from + a.wind)))
              + forecast_twins(("shading",), hours=hours, input_sigma=True,
-                              seeds=tuple(range(a.shade_from, a.shade_from + a.shade))))
+                              seeds=tuple(range(a.shade_from, a.shade_from + a.shade)))
+             + still_twins(range(a.still_from, a.still_from + a.still)))
     done = set()
     if a.out.exists():
         done = {json.loads(ln)["twin"] for ln in a.out.read_text().splitlines() if ln.strip()}

@@ -40,6 +40,19 @@ they do not rule it out: a window where one side fits in sample at more than
 :data:`FIT_RATIO` times the other's RMSE is marked in the table (``fit?``) and counted in the
 verdict, so a reader can look at it.
 
+**A still record.** Without a wind column an energy balance's sensible heat is one transfer
+coefficient (:mod:`~pavement_mcmc.physics.catalogue.energy`, the no-wind fallback), and its
+forcing, the net radiation and the air temperature, is the base's: with no latent heat it *is*
+the base with h(t) held constant. Against the free h(t), carried to the next day by its
+clock-hour mean, it can forecast better only by having fewer parameters, not by knowing a
+forcing the base does not. On still twins whose truth is exactly that law
+(``benchmarks/rolling_null.py --still``: h constant, no wind column, no latent heat; 18 days,
+15 windows) the rule names it on 3 of 20 (95 %: 3-38 %): the law wins 8-12 days of 15
+(median 10, 197 of all 300 days), its forecasts within about 1 % of the free h(t)'s. At
+that rate a sign test at 0.05 names it over 15, 27 and 43 days with probability 0.19, 0.39
+and 0.60. So the verdict says, where the base has a free h(t) and the law is a
+balance on a windless record, that not being named is weak evidence (:attr:`Rolling.windless`).
+
 Observation streams the law's case fits and the base's does not (the infrared surface
 temperature of ``runs/grass_energy.toml``) are listed too (:attr:`Rolling.also_observed`): both
 forecasts are scored on the buried sensors alone, but the law's parameters have more data.
@@ -57,6 +70,7 @@ from threadpoolctl import threadpool_limits
 
 from ..data import ConfigError, record_times
 from ..data.times import format_time, parse_time, seconds_between
+from ..physics.catalogue.energy import EnergyBalance
 from ..posterior.problem import case_measurements
 from .forecast import forecast_from_starts, gain
 from .ground import ground_extensions
@@ -67,6 +81,9 @@ LEVEL = 0.05
 #: a window where one side's in-sample RMSE is more than this many times the other's is marked
 #: (module doc, *Starts*): a law fits 2-3x a free h(t) on the desert's windows, a failed MAP 5-10x
 FIT_RATIO = 5.0
+#: the rule's power on still twins, where the no-wind balance is the truth (module doc)
+STILL_POWER = ("On 20 still twins where such a balance is exactly the truth the rule named it on 3 "
+               "(95 %: 3-38 %); it won 8-12 of 15 days, median 10 (docs/VALIDATION.md §5).")
 #: window (fitted) and horizon (forecast) hours, and hours between origins
 WINDOW_H, HORIZON_H, STEP_H = 72.0, 24.0, 24.0
 
@@ -109,6 +126,9 @@ class Rolling:
     also_added: list[str] = field(default_factory=list)
     #: observation streams the law's case fits and the base's does not (module doc)
     also_observed: list[str] = field(default_factory=list)
+    #: the base has a free h(t) and the law is an energy balance on a record without wind
+    #: (module doc, *A still record*)
+    windless: bool = False
     #: the base's case as given (``CASE.toml+ext``), for the command the verdict suggests
     base_case: str = "BASE.toml"
 
@@ -158,6 +178,12 @@ class Rolling:
                     "does not: both forecasts are scored on the buried sensors alone, but the "
                     "law's parameters are fitted to these data too, so the count credits them "
                     "as well.")
+        if self.windless and not self.named:
+            out += (" The record has no wind: the balance's sensible heat is one transfer "
+                    "coefficient, and its forcing (the net radiation, the air temperature) is "
+                    "the base's, so it can forecast better than the free h(t) only by having "
+                    "fewer parameters. " + STILL_POWER + " Not being named here is weak "
+                    "evidence against the balance; compare the fits' κ and C with the ground's.")
         odd = [d for d in self.days if d.fit_suspect]
         if odd:
             won = sum(d.law_better for d in odd)
@@ -186,7 +212,7 @@ class Rolling:
                 "horizon_h": self.horizon_h, "n": self.n, "wins": self.wins,
                 "p_value": self.p_value, "F_sum": self.F_sum, "named": self.named,
                 "level": LEVEL, "medians": self.medians(), "also_added": list(self.also_added),
-                "also_observed": list(self.also_observed),
+                "also_observed": list(self.also_observed), "windless": self.windless,
                 "fit_suspect": [d.time for d in self.days if d.fit_suspect],
                 "days": [dict(vars(d)) for d in self.days]}
 
@@ -306,6 +332,7 @@ def _rolling(base, law, window_h, horizon_h, step_h, start_h, days, max_nfev, on
                           "same data")
     built = {c: case_problem(c, first) for c in (str(base), str(law))}  # the first window's
     also = _also_added(built[str(base)][0].model, built[str(law)][0].model)
+    windless = _windless(built[str(base)][0].model, built[str(law)][0].model)
     seen = _also_observed(built[str(base)][0].posterior, built[str(law)][0].posterior)
     t0 = parse_time(times[0]).timestamp()
     out, warm = None, {}
@@ -317,7 +344,7 @@ def _rolling(base, law, window_h, horizon_h, step_h, start_h, days, max_nfev, on
         warm = {"base": fb.fits[-1].values(), "law": fl.fits[-1].values()}
         if out is None:
             out = Rolling(label_b, label_l, float(window_h), float(horizon_h), also_added=also,
-                          also_observed=seen, base_case=str(base))
+                          also_observed=seen, windless=windless, base_case=str(base))
         day = Day(start_h=a, time=format_time(t0 + a * 3600.0), base_rmse=fb.rmse,
                   law_rmse=fl.rmse, base_fit=float(fit_b), law_fit=float(fit_l),
                   F=gain(fb.n, fb.rho, fb.rmse, fl.rmse),
@@ -332,6 +359,13 @@ def _also_added(base_model, law_model) -> list[str]:
     """Names of the ground or sensor extensions of ``law_model`` that ``base_model`` lacks."""
     have = {e.name for e in base_model.extensions}
     return [e.name for e in ground_extensions(law_model) if e.name not in have]
+
+
+def _windless(base_model, law_model) -> bool:
+    """Whether ``base_model`` has a free h(t) and ``law_model`` an energy balance without a
+    wind column (module doc, *A still record*)."""
+    balance = any(isinstance(e, EnergyBalance) for e in law_model.extensions)
+    return balance and not base_model.replaces_h and law_model.meas.wind is None
 
 
 def _also_observed(base_posterior, law_posterior) -> list[str]:

@@ -15,6 +15,7 @@ from pavement_mcmc.criticism import rolling
 from pavement_mcmc.criticism.rolling import LEVEL, Day, Rolling, origins, rolling_forecast
 from pavement_mcmc.data import ConfigError
 from pavement_mcmc.synthetic.corpus import forecast_twins, write_twin
+from pavement_mcmc.synthetic.io import drop_columns
 
 LAW = "energy_balance_window"
 #: 8 days: five 72 h windows, each with the next day (5 of 5 is the fewest days a sign test
@@ -106,6 +107,7 @@ def test_a_ground_effect_the_law_adds_and_the_base_lacks_is_named_in_the_verdict
     assert "also adds two_layer, sensor_bias" in both.verdict()
     assert f"{case}+two_layer+sensor_bias" in both.verdict()  # the base as given, extended
     assert both.to_dict()["also_added"] == ["two_layer", "sensor_bias"]
+    assert not both.windless and "no wind" not in both.verdict()  # the wind drives its H
     fair = rolling_forecast(f"{case}+two_layer", f"{case}+{LAW}+two_layer", days=1)
     assert fair.also_added == [] and "also adds" not in fair.verdict()
     assert fair.also_observed == [] and "also fits" not in fair.verdict()  # the same streams
@@ -249,3 +251,16 @@ def test_a_window_the_cases_values_fit_badly_is_fitted_from_the_other_starts():
     best = rolling_forecast(base, base, start_h=4632, days=2)
     assert [d.base_fit > 1.0 for d in one.days] == [True, True]
     assert [d.base_fit < 0.3 for d in best.days] == [True, True]
+
+
+def test_a_balance_on_a_record_without_wind_says_what_the_count_can_show(tmp_path):
+    """Without a wind column the balance's H is one coefficient and it adds no forcing to the
+    free h(t)'s: the verdict says so, with the rule's power where the balance is the truth
+    (module doc, *A still record*); a base that is itself a balance gets no such line."""
+    case = _case(tmp_path, None, 501)
+    drop_columns(case.parent / "measurements.csv", ("wind",))
+    still = rolling_forecast(case, f"{case}+{LAW}", days=1)
+    assert still.windless and not still.named and still.to_dict()["windless"]
+    assert "The record has no wind" in still.verdict() and "still twins" in still.verdict()
+    same = rolling_forecast(f"{case}+{LAW}", f"{case}+{LAW}", days=1)
+    assert not same.windless and "no wind" not in same.verdict()
