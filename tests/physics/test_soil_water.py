@@ -40,18 +40,39 @@ def _p(**kw):
 
 
 def test_the_law_by_hand():
+    """LE = f (R_n - G), f = min(alpha beta(theta) s/(s+gamma), 0.9) by day and 0 at night, and
+    the solver's h = h_H / (1 - f) (G = R_n + h_H (T_a - T_s) / (1 - f))."""
+    from types import SimpleNamespace as NS
+
+    from pavement_mcmc.physics.catalogue.soil_water import F_MAX
+
     ext, p = _p(eb_alpha=[1.2, 0.6], eb_theta_fc=[0.25, 0.1], eb_h0=[5.0, 5.0])
-    LE = ext.latent(p, Meas)
+    G = 0.1 * Meas.q_net[None, :] * np.array([[1.0], [2.0]])
+    LE = ext.latent(p, Meas, G)
     theta = Meas.extras["SWC"]
-    pt = priestley_taylor_weight(Meas.T_air) * np.maximum(Meas.q_net, 0.0)
-    np.testing.assert_allclose(LE[0], 1.2 * np.minimum(1, theta / 0.25) * pt)
-    np.testing.assert_allclose(LE[1], 0.6 * np.minimum(1, theta / 0.1) * pt)
+    w = priestley_taylor_weight(Meas.T_air) * (Meas.q_net > 0)
+    f = np.stack([np.minimum(1.2 * np.minimum(1, theta / 0.25) * w, F_MAX),
+                  np.minimum(0.6 * np.minimum(1, theta / 0.1) * w, F_MAX)])
+    np.testing.assert_allclose(LE, f * (Meas.q_net[None, :] - G))
     wet = theta >= 0.25
-    np.testing.assert_allclose(LE[0, wet], 1.2 * pt[wet])  # above the field capacity: a wet surface
+    np.testing.assert_allclose(LE[0, wet], (1.2 * w * (Meas.q_net - G[0]))[wet])  # a wet surface
     assert LE[:, Meas.q_net <= 0].max() == 0.0  # no latent heat at night
     assert LE[:, 0].max() == 0.0 and theta[0] == 0.0  # a dry soil does not evaporate
-    # the sensible heat is the balance's: one coefficient without a wind column
+    # the sensible heat is the balance's, one coefficient without a wind column, and the
+    # latent heat's share of R_n - G enters the solver's h
     np.testing.assert_allclose(ext.transfer(p, Meas), 5.0)
+    coeffs = NS(h=None, q=np.broadcast_to(Meas.q_net, (2, Meas.t.size)).copy())
+    ext.surface(coeffs, p, NS(meas=Meas))
+    h = 5.0 / (1.0 - f)
+    np.testing.assert_allclose(coeffs.h, 0.5 * (h[:, :-1] + h[:, 1:]))
+    np.testing.assert_allclose(coeffs.q, Meas.q_net[None, :].repeat(2, 0))  # R_n untouched
+    # the share is capped where Priestley-Taylor's 1.6 s/(s+gamma) passes 1 (hot, wet)
+    _, hot = _p(eb_alpha=[1.6], eb_theta_fc=[0.05])
+
+    class Hot(Meas):
+        T_air = Meas.T_air + 20.0
+
+    assert ext.share(hot, Hot).max() == F_MAX
 
 
 def test_its_parameters_and_refusals():
@@ -77,8 +98,9 @@ def test_its_parameters_and_refusals():
 
 # --- twins from the independent simulator (pavement_mcmc.synthetic.soil_water): a 5 cm layer
 # wetted to its porosity 12 h before the window and drying down (e-folding 36 h) through it,
-# the latent heat Noilhan-Planton's 0.25 (1 - cos(pi theta/theta_fc))^2 on R_n - G, not the
-# law's min(1, theta/theta_fc) on R_n. Tolerances from seeds 1-8 (benchmarks/swc_twins.py).
+# the latent heat Noilhan-Planton's 0.25 (1 - cos(pi theta/theta_fc))^2 on max(R_n - G, 0), not
+# the law's min(1, theta/theta_fc) while R_n > 0. Tolerances from seeds 1-8
+# (benchmarks/swc_twins.py, 30 Nov).
 
 FC = 0.2
 
@@ -133,38 +155,40 @@ def test_the_twin_carries_its_water_content_and_latent_heat():
 
 
 def test_a_drying_twin_is_fitted_and_priestley_taylor_blind_to_it_is_not(tmp_path):
-    """Seeds 1-8: kappa -9 to -14 %, C -42 to -63 %, eb_alpha 0.94-0.97, daytime LE +59 to
-    +71 W m-2 (+37 to +46 % of the truth's ~158), RMSE 0.43-0.46 degC; Priestley-Taylor: C
-    at its bound (-99 %), daytime LE +173 to +191 W m-2, RMSE 0.89-0.92 degC. The law's C is
-    biased low because its available energy is R_n where the twin's is R_n - G (see the next
-    test); its LE high because the linear efficiency exceeds the cosine one below theta_fc."""
+    """Seeds 1-8: kappa -7 to -13 %, C +3 to +28 %, eb_alpha 1.06-1.09, daytime LE +33 to
+    +43 W m-2 (+20 to +28 % of the truth's ~158), RMSE 0.32-0.37 degC; Priestley-Taylor: C
+    at its bound (-99 %), daytime LE +173 to +191 W m-2, RMSE 0.89-0.92 degC. The law's LE is
+    high because the linear efficiency exceeds the cosine one below theta_fc. (The law on R_n
+    alone, before 30 Nov: C -42 to -63 %, LE +37 to +46 %, RMSE 0.43-0.46.)"""
     twin, pb, fit, LE, truth = _fit_twin(tmp_path)
     np.testing.assert_allclose(pb.meas.extras["SWC"][0], 0.29, atol=0.04)  # read as the role
     v = fit.values()
     assert v["kappa"] == pytest.approx(twin.spec.kappa, rel=0.2)
-    assert v["C"] == pytest.approx(twin.spec.C, rel=0.7)
-    assert 0.8 < v["eb_alpha"] < 1.1
+    assert v["C"] == pytest.approx(twin.spec.C, rel=0.4)
+    assert 1.0 < v["eb_alpha"] < 1.2
     day = pb.meas.q_net > 300
-    assert abs(np.mean(LE[day] - truth[day])) < 0.55 * np.mean(truth[day])
-    assert np.sqrt(np.mean((LE[day] - truth[day]) ** 2)) < 0.6 * np.mean(truth[day])
+    assert abs(np.mean(LE[day] - truth[day])) < 0.35 * np.mean(truth[day])
+    assert np.sqrt(np.mean((LE[day] - truth[day]) ** 2)) < 0.45 * np.mean(truth[day])
     _, _, pt, LE_pt, _ = _fit_twin(tmp_path, law="energy_balance_window")
     assert pt.rmse > 1.6 * fit.rmse
     assert pt.values()["C"] < 0.2 * twin.spec.C  # it pays with the soil
     assert np.mean(LE_pt[day] - truth[day]) > 2 * np.mean(LE[day] - truth[day])
 
 
-def test_on_the_laws_own_available_energy_the_soil_is_recovered(tmp_path):
-    """The same twin with its latent heat on R_n (``et_available = "net"``): only the
-    efficiency curve differs. Seeds 1-8: kappa -5 to -9 %, C -0.3 to -22 %, daytime LE +51
-    to +64 W m-2 (+24 to +32 %), RMSE 0.32-0.37 degC; Priestley-Taylor's C at its bound."""
+def test_a_twin_evaporating_on_the_net_radiation_alone_is_fitted_less_well(tmp_path):
+    """The same twin with its latent heat on max(R_n, 0) (``et_available = "net"``), not the
+    law's R_n - G. Seeds 1-8: kappa -2 to +26 %, C -11 to +72 %, daytime LE +1 to +44 W m-2,
+    RMSE 0.57-0.64 degC (0.32-0.37 on the twin above); Priestley-Taylor's C at its bound, its
+    RMSE 1.37-1.55 times the law's."""
     twin, pb, fit, LE, truth = _fit_twin(tmp_path, et_available="net")
     v = fit.values()
-    assert v["kappa"] == pytest.approx(twin.spec.kappa, rel=0.15)
-    assert v["C"] == pytest.approx(twin.spec.C, rel=0.3)
+    assert v["kappa"] == pytest.approx(twin.spec.kappa, rel=0.3)
+    assert v["C"] == pytest.approx(twin.spec.C, rel=0.8)
     day = pb.meas.q_net > 300
-    assert abs(np.mean(LE[day] - truth[day])) < 0.4 * np.mean(truth[day])
+    assert abs(np.mean(LE[day] - truth[day])) < 0.3 * np.mean(truth[day])
+    assert fit.rmse > 0.5  # the available energy matters: it fits worse than the twin above
     _, _, pt, _, _ = _fit_twin(tmp_path, law="energy_balance_window", et_available="net")
-    assert pt.rmse > 2 * fit.rmse
+    assert pt.rmse > 1.3 * fit.rmse
 
 
 def test_a_dry_surface_with_a_wet_probe_does_not_invent_evaporation(tmp_path):
