@@ -138,6 +138,13 @@ class Model:
                 params.append(p)
         return ParameterSpace(params, joint)
 
+    @property
+    def surface_order(self) -> list:
+        """The extensions in the order their surface hooks run: the one that replaces h(t)
+        first (it sets h, which a layer or a canopy listed before it would otherwise damp in
+        vain), then the others as listed."""
+        return sorted(self.extensions, key=lambda e: not e.replaces_h)
+
     # -- forward -----------------------------------------------------------------------------
     def coefficients(self, p: dict[str, np.ndarray], record: dict | None = None) -> Coefficients:
         """Solver coefficients for a batch of parameter sets (``record``: gets the (h, q) that
@@ -160,7 +167,7 @@ class Model:
         # a skin node's coefficients last: the soil's hooks (e.g. two_layer) set every cell
         for ext in sorted(self.extensions, key=lambda e: bool(e.skin_node)):
             ext.material(coeffs, p, self)
-        for ext in self.extensions:
+        for ext in self.surface_order:
             if record is not None and ext.surface_vjp is not None:
                 record[ext.name] = (coeffs.h.copy(), coeffs.q.copy())
             ext.surface(coeffs, p, self)
@@ -266,7 +273,7 @@ class Model:
                 g[k] = g[k] + direct.pop(k)
         grads: dict[str, np.ndarray] = {}
         g_final = dict(g)  # the finite differences below act on the final coefficients
-        for ext in reversed(self.extensions):  # back through the surface hooks that say how
+        for ext in reversed(self.surface_order):  # back through the surface hooks that say how
             if ext.surface_vjp is not None:
                 g["h"], g["q"], own = ext.surface_vjp(g["h"], g["q"], *record[ext.name], p, self)
                 grads.update(own)

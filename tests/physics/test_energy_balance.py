@@ -239,3 +239,18 @@ def test_partition_with_a_surface_layer_is_the_skin_balance(twin):
     law = hH * (T_k - m.meas.T_air)  # at the times (the model's h is per interval: ~ 5 %)
     day = m.meas.q_net > 0.5 * m.meas.q_net.max()
     assert part.H[0, day].sum() == pytest.approx(law[0, day].sum(), rel=0.05)
+
+
+def test_the_balance_sets_h_before_a_layer_damps_it_whatever_the_order_listed(twin):
+    """``surface_layer`` listed before the balance damped an h of 0 and lost its resistance
+    (the balance then overwrote h): the law that replaces h(t) runs first, so both orders give
+    the same coefficients (the gradient in that order: tests/posterior/test_gradients.py)."""
+    pb, _ = twin
+    p = {k: np.array([v]) for k, v in pb.space.value_dict().items()}
+    p["R_surface"] = np.array([0.3])
+    after, before = (Model(pb.meas, pb.model.grid, pb.model.h_basis, names) for names in
+                     (["energy_balance", "surface_layer"], ["surface_layer", "energy_balance"]))
+    ca, cb = after.coefficients(p), before.coefficients(p)
+    np.testing.assert_allclose(cb.h, ca.h)
+    np.testing.assert_allclose(cb.q, ca.q)
+    assert np.mean(ca.h) < 0.5 * np.mean(after.extensions[0].transfer(p, pb.meas))  # damped

@@ -50,6 +50,7 @@ def _point(pb, seed=1):
     ("hidden", ["wind_convection", "evaporation"]),
     ("hidden", ["energy_balance"]),
     ("caseA", ["energy_balance", "surface_layer"]),
+    ("caseA", ["surface_layer", "energy_balance"]),  # the balance's hook runs first all the same
     ("caseC", ["surface_layer"]),
 ])
 def test_adjoint_gradient_with_extensions(case, exts):
