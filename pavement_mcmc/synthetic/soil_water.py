@@ -24,7 +24,8 @@ rows. The latent heat leaving the surface is Priestley–Taylor on the available
 
 :math:`\alpha` the spec's ``swc_alpha`` (0: the water content is recorded, no latent heat),
 :math:`\theta_{fc}` its ``swc_fc``. Deliberately not the inversion's ``energy_balance_swc``
-(a linear :math:`\min(1, \theta/\theta_{fc})` on :math:`R_n` alone): no inverse crime. The
+(a linear :math:`\min(1, \theta/\theta_{fc})` on :math:`R_n - G` while :math:`R_n > 0`, with
+the share capped): no inverse crime. The
 recorded ``SWC`` column is :math:`\theta` + :data:`SWC_NOISE` N (its own random stream),
 clipped at 0.
 """

@@ -36,8 +36,10 @@ interval is gone), so the model can predict a day it has not seen from its forci
 
 A grass or thatch layer is added by listing ``canopy`` (a skin node with heat capacity above
 the soil, which the balance acts on) or ``surface_layer`` (a pure resistance: it then damps
-``h_H`` and ``R_n - LE`` together) after this entry; the infrared surface temperature
-(``[data] ir_sigma``) observes the skin. :func:`energy_partition` gives the
+the solver's h and q together, here ``h_H`` and ``R_n - LE``, with the forms on
+:math:`R_n - G` their ``h_H / (1 - f)`` and q) with this entry (the balance's hook runs first
+whatever the order listed, :attr:`~pavement_mcmc.physics.model.Model.surface_order`); the
+infrared surface temperature (``[data] ir_sigma``) observes the skin. :func:`energy_partition` gives the
 four fluxes a fit implies; the report and ``plot_energy_balance`` show them.
 """
 
@@ -215,11 +217,13 @@ def energy_partition(model, p: dict[str, np.ndarray]) -> Partition:
     coeffs = model.coefficients(p)
     G = model.surface_flux(model.solve(p), coeffs)
     Rn = np.broadcast_to(np.asarray(model.meas.q_net, float), G.shape)
-    LE = ext.latent(p, model.meas, G)
     # what a shadow keeps off the spot, by its own law; H the rest of the skin's balance
     # (Rn - off - LE - H = G: with a surface_layer coeffs.q - G is not the law's H)
     off = np.zeros(G.shape)
     for e in model.extensions:
         if hasattr(e, "kept_off"):
             off = off + e.kept_off(p, model)
+    # a law on the available energy (Penman-Monteith, the soil-water form) evaporates on what
+    # reaches the spot, R_n - off - G: the "G" it is given is what R_n loses besides LE and H
+    LE = ext.latent(p, model.meas, G + off)
     return Partition(model.meas.t, Rn, Rn - off - LE - G, LE, G, off)

@@ -137,7 +137,8 @@ class EnergyBalancePM(EnergyBalance):
         return pm_terms(meas.q_net, meas.T_air, humidity(meas), self.transfer(p, meas), rs_t)
 
     def latent(self, p, meas, G=None) -> np.ndarray:
-        """LE (n_sets, n_obs), W m-2, given the solved heat flux into the surface ``G``."""
+        """LE (n_sets, n_obs), W m-2, given ``G``: what R_n loses at the spot besides LE and H
+        (the solved heat flux into the surface, and what a shadow keeps off it)."""
         f, V = self.terms(p, meas)
         return f * (np.asarray(meas.q_net, float)[None, :] - (0.0 if G is None else G)) + V
 
