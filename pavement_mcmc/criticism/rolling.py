@@ -40,18 +40,20 @@ they do not rule it out: a window where one side fits in sample at more than
 :data:`FIT_RATIO` times the other's RMSE is marked in the table (``fit?``) and counted in the
 verdict, so a reader can look at it.
 
-**A still record.** Without a wind column an energy balance's sensible heat is one transfer
-coefficient (:mod:`~pavement_mcmc.physics.catalogue.energy`, the no-wind fallback), and its
-forcing, the net radiation and the air temperature, is the base's: with no latent heat it *is*
-the base with h(t) held constant. Against the free h(t), carried to the next day by its
+**A still record.** Without a wind column the Priestley–Taylor balance's sensible heat is one
+transfer coefficient (:mod:`~pavement_mcmc.physics.catalogue.energy`, the no-wind fallback),
+and its forcing, the net radiation and the air temperature, is the base's: with no latent heat
+it *is* the base with h(t) held constant. Against a free h(t), carried to the next day by its
 clock-hour mean, it can forecast better only by having fewer parameters, not by knowing a
-forcing the base does not. On still twins whose truth is exactly that law
+forcing the base does not. On 20 still twins whose truth is exactly that law
 (``benchmarks/rolling_null.py --still``: h constant, no wind column, no latent heat; 18 days,
-15 windows) the rule names it on 3 of 20 (95 %: 3-38 %): the law wins 8-12 days of 15
-(median 10, 197 of all 300 days), its forecasts within about 1 % of the free h(t)'s. At
-that rate a sign test at 0.05 names it over 15, 27 and 43 days with probability 0.19, 0.39
-and 0.60. So the verdict says, where the base has a free h(t) and the law is a
-balance on a windless record, that not being named is weak evidence (:attr:`Rolling.windless`).
+15 windows) the rule named it on 3 (95 %: 3-38 %): the law won 8-12 days of 15 (median 10,
+197 of all 300 days), its forecasts within about 1 % of the free h(t)'s. At that rate a sign
+test at 0.05 names it over 15, 27 and 43 days with probability 0.19, 0.39 and 0.60. Where the
+base has a free h(t) of more than one piece and the law is that balance with nothing else at
+the surface (ground effects aside) on a windless record (:attr:`Rolling.windless`), a verdict
+that does not name it gives these figures for its own number of days. A law that reads more
+(the humidity, the soil water, a shadow, a canopy) is not covered by them.
 
 Observation streams the law's case fits and the base's does not (the infrared surface
 temperature of ``runs/grass_energy.toml``) are listed too (:attr:`Rolling.also_observed`): both
@@ -70,7 +72,7 @@ from threadpoolctl import threadpool_limits
 
 from ..data import ConfigError, record_times
 from ..data.times import format_time, parse_time, seconds_between
-from ..physics.catalogue.energy import EnergyBalance
+from ..physics.catalogue.energy import EnergyBalance, EnergyBalanceWindow
 from ..posterior.problem import case_measurements
 from .forecast import forecast_from_starts, gain
 from .ground import ground_extensions
@@ -81,9 +83,8 @@ LEVEL = 0.05
 #: a window where one side's in-sample RMSE is more than this many times the other's is marked
 #: (module doc, *Starts*): a law fits 2-3x a free h(t) on the desert's windows, a failed MAP 5-10x
 FIT_RATIO = 5.0
-#: the rule's power on still twins, where the no-wind balance is the truth (module doc)
-STILL_POWER = ("On 20 still twins where such a balance is exactly the truth the rule named it on 3 "
-               "(95 %: 3-38 %); it won 8-12 of 15 days, median 10 (docs/VALIDATION.md §5).")
+#: days the balance won, of all days, on the still twins where it is the truth (module doc)
+STILL_WON, STILL_DAYS = 197, 300
 #: window (fitted) and horizon (forecast) hours, and hours between origins
 WINDOW_H, HORIZON_H, STEP_H = 72.0, 24.0, 24.0
 
@@ -179,11 +180,19 @@ class Rolling:
                     "law's parameters are fitted to these data too, so the count credits them "
                     "as well.")
         if self.windless and not self.named:
-            out += (" The record has no wind: the balance's sensible heat is one transfer "
-                    "coefficient, and its forcing (the net radiation, the air temperature) is "
-                    "the base's, so it can forecast better than the free h(t) only by having "
-                    "fewer parameters. " + STILL_POWER + " Not being named here is weak "
-                    "evidence against the balance; compare the fits' κ and C with the ground's.")
+            rate = STILL_WON / STILL_DAYS
+            need = next((k for k in range(self.n + 1) if binom.sf(k - 1, self.n, 0.5) <= LEVEL),
+                        None)  # None: too few days for the sign test to name anything
+            power = 0.0 if need is None else binom.sf(need - 1, self.n, rate)
+            out += (" The record has no wind and the law is the balance with nothing else at the "
+                    "surface: its sensible heat is one transfer coefficient and its forcing (the "
+                    "net radiation, the air temperature) is the base's, so it can forecast better "
+                    "than the free h(t) only by having fewer parameters. On still twins where it "
+                    f"is exactly the truth it won {STILL_WON} of {STILL_DAYS} days "
+                    "(docs/VALIDATION.md §5); at that rate a sign test over "
+                    f"{self.n} days names it with probability "
+                    f"{power:.2f}, and {self.wins} or fewer wins have "
+                    f"probability {binom.cdf(self.wins, self.n, rate):.2f}.")
         odd = [d for d in self.days if d.fit_suspect]
         if odd:
             won = sum(d.law_better for d in odd)
@@ -362,10 +371,14 @@ def _also_added(base_model, law_model) -> list[str]:
 
 
 def _windless(base_model, law_model) -> bool:
-    """Whether ``base_model`` has a free h(t) and ``law_model`` an energy balance without a
-    wind column (module doc, *A still record*)."""
-    balance = any(isinstance(e, EnergyBalance) for e in law_model.extensions)
-    return balance and not base_model.replaces_h and law_model.meas.wind is None
+    """Whether ``base_model`` has a free h(t) of more than one piece and ``law_model`` on a
+    record without wind is the Priestley–Taylor balance with no other surface effect than the
+    base's (ground effects aside; module doc, *A still record*)."""
+    if base_model.replaces_h or len(base_model.h_basis.names) < 2 or law_model.meas.wind is not None:
+        return False
+    have = {e.name for e in base_model.extensions} | {e.name for e in ground_extensions(law_model)}
+    more = [e for e in law_model.extensions if e.name not in have]
+    return len(more) == 1 and type(more[0]) in (EnergyBalance, EnergyBalanceWindow)
 
 
 def _also_observed(base_posterior, law_posterior) -> list[str]:

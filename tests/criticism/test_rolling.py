@@ -254,13 +254,42 @@ def test_a_window_the_cases_values_fit_badly_is_fitted_from_the_other_starts():
 
 
 def test_a_balance_on_a_record_without_wind_says_what_the_count_can_show(tmp_path):
-    """Without a wind column the balance's H is one coefficient and it adds no forcing to the
-    free h(t)'s: the verdict says so, with the rule's power where the balance is the truth
-    (module doc, *A still record*); a base that is itself a balance gets no such line."""
+    """Without a wind column the Priestley-Taylor balance's H is one coefficient and it adds no
+    forcing to a free h(t)'s: the verdict says so, with the rule's power at the still twins'
+    rate (197 of 300 days) for its own number of days (module doc, *A still record*)."""
     case = _case(tmp_path, None, 501)
     drop_columns(case.parent / "measurements.csv", ("wind",))
-    still = rolling_forecast(case, f"{case}+{LAW}", days=1)
+    still = rolling_forecast(case, f"{case}+{LAW}+two_layer", days=1)  # a ground effect aside
     assert still.windless and not still.named and still.to_dict()["windless"]
-    assert "The record has no wind" in still.verdict() and "still twins" in still.verdict()
+    assert "The record has no wind" in still.verdict() and "197 of 300" in still.verdict()
+    assert "over 1 days names it with probability 0.00" in still.verdict()  # too few days
     same = rolling_forecast(f"{case}+{LAW}", f"{case}+{LAW}", days=1)
     assert not same.windless and "no wind" not in same.verdict()
+    # 13 wins of 27 (the desert's July count): power 0.39 at 0.657 a day, P(<= 13) 0.046
+    r = Rolling("b", "l", 72.0, 24.0, [_day(1.0, 0.5, 3.0)] * 13 + [_day(0.5, 1.0, -1.0)] * 14,
+                windless=True)
+    assert "over 27 days names it with probability 0.39" in r.verdict()
+    assert "13 or fewer wins have probability 0.05" in r.verdict()
+
+
+def test_the_still_line_is_only_for_the_plain_balance_against_a_free_h():
+    """Not for a base whose h is one constant (the law then has more parameters), a record with
+    wind, or a law that reads more than the net radiation and the air temperature (a shadow,
+    the soil water): the still twins' figures are of the plain balance."""
+    from types import SimpleNamespace as NS
+
+    from pavement_mcmc.physics import get_extension
+
+    def model(*names, h=("h_1", "h_2"), wind=None, replaces=False):
+        return NS(extensions=[get_extension(n) for n in names], replaces_h=replaces,
+                  h_basis=NS(names=list(h)), meas=NS(wind=wind))
+
+    base = model()
+    assert rolling._windless(base, model(LAW))
+    assert rolling._windless(base, model("energy_balance", "two_layer"))
+    assert rolling._windless(model("shading"), model(LAW, "shading"))  # the shadow in both
+    assert not rolling._windless(model(h=("h_1",)), model(LAW))  # one constant h
+    assert not rolling._windless(base, model(LAW, wind=np.ones(3)))
+    assert not rolling._windless(base, model(LAW, "shading"))
+    assert not rolling._windless(base, model("energy_balance_swc"))
+    assert not rolling._windless(model(LAW, replaces=True), model(LAW))
