@@ -7,7 +7,9 @@ supplies do-nothing defaults. Hooks are called in this order for a batch of para
 1. :meth:`Extension.material` may edit ``coeffs.kappa`` (n_sets, n_cells), ``coeffs.C``
    (n_sets, n_nodes) or set ``coeffs.beta`` (n_sets,).
 2. :meth:`Extension.surface` may edit ``coeffs.h`` (n_sets, n_obs-1) or ``coeffs.q``
-   (n_sets, n_obs), the surface flux terms: flux into the ground = h (T_air - T_s) + q.
+   (n_sets, n_obs), the surface flux terms: flux into the ground = h (T_air - T_s) + q. The
+   hook of an effect that replaces h(t) runs first and a layer over the soil's last
+   (:attr:`~pavement_mcmc.physics.model.Model.surface_order`); the others add to q.
 3. :meth:`Extension.observe` may change the predicted sensor temperatures (n_sets, n_obs,
    n_sensors) given the nodal solution.
 

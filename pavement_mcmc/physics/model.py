@@ -141,9 +141,10 @@ class Model:
     @property
     def surface_order(self) -> list:
         """The extensions in the order their surface hooks run: the one that replaces h(t)
-        first (it sets h, which a layer or a canopy listed before it would otherwise damp in
-        vain), then the others as listed."""
-        return sorted(self.extensions, key=lambda e: not e.replaces_h)
+        first (it sets h), a layer between the air and the soil (``surface_layer``) last (it
+        damps the h and q every other term made), the others as listed between (they add to
+        q). Any order a case lists gives the same coefficients."""
+        return sorted(self.extensions, key=lambda e: (not e.replaces_h, e.over_soil))
 
     # -- forward -----------------------------------------------------------------------------
     def coefficients(self, p: dict[str, np.ndarray], record: dict | None = None) -> Coefficients:

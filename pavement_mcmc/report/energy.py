@@ -27,7 +27,8 @@ def energy_section(problem, view, n_draws: int = 100):
     frag = ("<p>The net radiation Rn (measured) split by the fitted laws into sensible heat H "
             "(bulk transfer with the wind, or the no-wind fallback), latent heat LE "
             f"({latent}) and the heat flux into the ground G = "
-            "Rn − H − LE (less what a shadow keeps off the spot, with <code>shading</code>). Midday: "
+            "Rn − H − LE (less what other surface terms take off the spot: a "
+            "<code>shading</code> shadow, a radiation factor, a sink after rain). Midday: "
             "the rows where Rn exceeds half its maximum (ratios of sums). "
             "Over April grass LE/Rn is typically 0.5–0.8 and G/Rn 0.05–0.2; over dry bare soil "
             "LE is small and G/Rn 0.2–0.4.</p><table><tr><th>at midday</th><th>median</th>"
@@ -38,7 +39,7 @@ def energy_section(problem, view, n_draws: int = 100):
                  + html.escape(tower.text()) + ". A tower closes typically 70–90 % of Rn − G, so "
                  "its midday share is read from its raw value to the value with its balance "
                  "closed at its own Bowen ratio.</p>")
-    off = part.off if "off_Rn" in part.midday() else None  # a shadow's own curve, if any
+    off = part.off if "off_Rn" in part.midday() else None  # other terms' own curve (a shadow), if any
     fig = plot_energy_balance(problem.meas.t, part.Rn[0], part.H, part.LE, part.G,
                               problem.meas.time0, part.summary_text(), off=off,
                               measured=tower_fluxes(problem.meas))

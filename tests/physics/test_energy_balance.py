@@ -254,3 +254,37 @@ def test_the_balance_sets_h_before_a_layer_damps_it_whatever_the_order_listed(tw
     np.testing.assert_allclose(cb.h, ca.h)
     np.testing.assert_allclose(cb.q, ca.q)
     assert np.mean(ca.h) < 0.5 * np.mean(after.extensions[0].transfer(p, pb.meas))  # damped
+
+
+def test_a_layer_damps_every_other_surface_term_whatever_the_order_listed(twin):
+    """A shadow (or any term that adds to q) listed after ``surface_layer`` escaped its damping:
+    the layer's hook runs last, so every order gives the same coefficients."""
+    pb, _ = twin
+    p = {k: np.array([v]) for k, v in pb.space.value_dict().items()}
+    p.update(R_surface=np.array([0.3]), shade_start=np.array([-2.0]),
+             shade_length=np.array([4.0]), shade_fraction=np.array([0.8]))
+    orders = (["energy_balance", "shading", "surface_layer"],
+              ["energy_balance", "surface_layer", "shading"],
+              ["surface_layer", "shading", "energy_balance"])
+    co = [Model(pb.meas, pb.model.grid, pb.model.h_basis, names).coefficients(p) for names in orders]
+    for c in co[1:]:
+        np.testing.assert_allclose(c.h, co[0].h)
+        np.testing.assert_allclose(c.q, co[0].q)
+
+
+@pytest.mark.parametrize("other, value", [("radiation_factor", {"rad_factor": 1.2}),
+                                          ("shading", {"shade_start": -2.0, "shade_length": 4.0,
+                                                       "shade_fraction": 0.8})])
+def test_the_partition_books_other_surface_terms_apart_from_the_sensible_heat(twin, other, value):
+    """Rn = H + LE + G + off with ``off`` every other surface term (not only a shadow): H stays
+    the law's h_H (T_s - T_a); a radiation factor used to land in H."""
+    pb, _ = twin
+    m = Model(pb.meas, pb.model.grid, pb.model.h_basis, ["energy_balance", other])
+    p = {k: np.array([v]) for k, v in pb.space.value_dict().items()}
+    p.update({k: np.array([v]) for k, v in value.items()})
+    part = energy_partition(m, p)
+    T_s = m.solve(p)[..., 0]
+    law = m.extensions[0].transfer(p, m.meas) * (T_s - m.meas.T_air[None, :])
+    day = m.meas.q_net > 0.5 * m.meas.q_net.max()
+    assert np.abs(part.off[0, day]).mean() > 30.0  # the term is on
+    assert np.mean(np.abs(part.H[0, day] - law[0, day])) < 10.0

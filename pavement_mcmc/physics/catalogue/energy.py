@@ -47,6 +47,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from types import SimpleNamespace
 
 import numpy as np
 
@@ -158,8 +159,9 @@ class Partition:
     ``Rn`` the recorded net radiation (the same for every set), ``H`` sensible and ``LE`` latent
     heat leaving the surface, ``G`` the heat flux into the soil (``Rn = H + LE + G + off``; with
     a ``surface_layer`` its storage is neglected as in the model; with a ``canopy`` ``G`` enters
-    the canopy skin: the canopy's storage and the soil's flux together). ``off``: the radiation
-    other surface terms keep off the spot (a ``shading`` shadow; zero without them).
+    the canopy skin: the canopy's storage and the soil's flux together). ``off``: what other
+    surface terms take off the spot (a ``shading`` shadow, a ``radiation_factor``, a sink after
+    rain; zero without them).
     """
 
     t: np.ndarray
@@ -204,7 +206,22 @@ class Partition:
 
 #: the midday ratios of :meth:`Partition.midday`, as a table or a line names them
 MIDDAY_NAMES = {"bowen": "Bowen ratio H/LE", "G_Rn": "G/Rn", "LE_Rn": "LE/Rn", "H_Rn": "H/Rn",
-                "off_Rn": "kept off the spot (shadow)/Rn"}
+                "off_Rn": "taken off the spot by other terms (a shadow...)/Rn"}
+
+
+def other_terms(model, p: dict[str, np.ndarray], law) -> np.ndarray:
+    """What the surface terms besides the balance ``law`` and a layer over the soil take off
+    the spot, W m-2 (n_sets, n_obs): a shadow, a radiation factor, a sink after rain. Their
+    hooks only add to q (:attr:`~pavement_mcmc.physics.model.Model.surface_order`), so they
+    are run on a zero q; H is the rest of the skin's balance (with a surface_layer, coeffs.q -
+    G is not the law's H)."""
+    n_sets = np.asarray(p["kappa"]).size
+    acc = SimpleNamespace(h=np.zeros((n_sets, model.meas.n_obs - 1)),
+                          q=np.zeros((n_sets, model.meas.n_obs)))
+    for e in model.surface_order:
+        if e is not law and not e.over_soil:
+            e.surface(acc, p, model)
+    return -acc.q
 
 
 def energy_partition(model, p: dict[str, np.ndarray]) -> Partition:
@@ -217,12 +234,7 @@ def energy_partition(model, p: dict[str, np.ndarray]) -> Partition:
     coeffs = model.coefficients(p)
     G = model.surface_flux(model.solve(p), coeffs)
     Rn = np.broadcast_to(np.asarray(model.meas.q_net, float), G.shape)
-    # what a shadow keeps off the spot, by its own law; H the rest of the skin's balance
-    # (Rn - off - LE - H = G: with a surface_layer coeffs.q - G is not the law's H)
-    off = np.zeros(G.shape)
-    for e in model.extensions:
-        if hasattr(e, "kept_off"):
-            off = off + e.kept_off(p, model)
+    off = other_terms(model, p, ext)
     # a law on the available energy (Penman-Monteith, the soil-water form) evaporates on what
     # reaches the spot, R_n - off - G: the "G" it is given is what R_n loses besides LE and H
     LE = ext.latent(p, model.meas, G + off)

@@ -73,7 +73,7 @@ class SurfaceLayer(Extension):
     radiative forcing the soil feels are damped by :math:`1 + hR` (``h`` the fitted surface
     coefficient, ``T_0`` the soil top). Sensor depths stay measured from the soil surface.
 
-    With ``energy_balance`` before it this is the canopy skin balance
+    With ``energy_balance`` (listed before or after it) this is the canopy skin balance
     :math:`R_n = H + LE + G`, :math:`H = h_H (T_k - T_a)`, :math:`G = (T_k - T_0)/R`, solved
     for the skin temperature :math:`T_k = T_0 + R\,G` (:meth:`skin`): the surface an infrared
     thermometer sees (``[data] ir_sigma``), which is what pins ``R`` and the H law.

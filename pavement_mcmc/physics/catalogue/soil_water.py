@@ -19,12 +19,12 @@ evaporates as a wet one while the soil holds water and stops as it dries:
 - :math:`f_{max}` = :data:`F_MAX`: Priestley–Taylor's 1.26 s/(s+γ) passes 1 above about 31 °C
   (a sensible heat into the surface whatever its temperature, and the solver's h below would
   have no bound). The cap binds at α = 1.26 over a wet soil above about 22 °C of air (at
-  α = 1.6 above 11 °C): there the latent heat is 0.9 (R_n − G) whatever α, and the data
+  α = 1.6 above about 10.5 °C): there the latent heat is 0.9 (R_n − G) whatever α, and the data
   inform α less.
 - The latent heat is switched off while :math:`R_n \le 0`: the share jumps at sunrise and
   sunset (the solver's h with it, up to tenfold). The form without the switch (a dew sink at
-  night) fitted 5 of 8 drying twins better in κ but stopped far off on 3 (κ +60 %, C at its
-  bound; ``docs/VALIDATION.md`` section 5); the switch fitted all 8.
+  night) fitted 5 of 8 drying twins better in κ but stopped far off on 3 (κ +60 %, C −79 to
+  −99 %; ``docs/VALIDATION.md`` section 5); the switch fitted all 8.
 
 The linear :math:`\beta` below the field capacity is the bucket of Manabe (1969) and the
 moisture limit of Barton (1979). H and the no-wind fallback are those of :mod:`.energy`. With
