@@ -50,10 +50,11 @@ forcing the base does not. On 20 still twins whose truth is exactly that law
 15 windows) the rule named it on 3 (95 %: 3-38 %): the law won 8-12 days of 15 (median 10,
 197 of all 300 days), its forecasts within about 1 % of the free h(t)'s. At that rate a sign
 test at 0.05 names it over 15, 27 and 43 days with probability 0.19, 0.39 and 0.60. Where the
-base has a free h(t) of more than one piece and the law is that balance with nothing else at
-the surface (ground effects aside) on a windless record (:attr:`Rolling.windless`), a verdict
-that does not name it gives these figures for its own number of days. A law that reads more
-(the humidity, the soil water, a shadow, a canopy) is not covered by them.
+base has a free h(t), one value per interval, and the law is ``energy_balance_window`` with
+nothing else at the surface (ground effects aside) on a windless record, and the law's case
+fits no stream the base's does not (:attr:`Rolling.windless`), a verdict that does not name
+it gives these figures for its own number of days. A law that reads more (the humidity, the
+soil water, a shadow, a canopy, one α a day, the IR) is not covered by them.
 
 Observation streams the law's case fits and the base's does not (the infrared surface
 temperature of ``runs/grass_energy.toml``) are listed too (:attr:`Rolling.also_observed`): both
@@ -72,7 +73,7 @@ from threadpoolctl import threadpool_limits
 
 from ..data import ConfigError, record_times
 from ..data.times import format_time, parse_time, seconds_between
-from ..physics.catalogue.energy import EnergyBalance, EnergyBalanceWindow
+from ..physics.catalogue.energy import EnergyBalanceWindow
 from ..posterior.problem import case_measurements
 from .forecast import forecast_from_starts, gain
 from .ground import ground_extensions
@@ -184,15 +185,18 @@ class Rolling:
             need = next((k for k in range(self.n + 1) if binom.sf(k - 1, self.n, 0.5) <= LEVEL),
                         None)  # None: too few days for the sign test to name anything
             power = 0.0 if need is None else binom.sf(need - 1, self.n, rate)
-            out += (" The record has no wind and the law is the balance with nothing else at the "
-                    "surface: its sensible heat is one transfer coefficient and its forcing (the "
-                    "net radiation, the air temperature) is the base's, so it can forecast better "
-                    "than the free h(t) only by having fewer parameters. On still twins where it "
-                    f"is exactly the truth it won {STILL_WON} of {STILL_DAYS} days "
-                    "(docs/VALIDATION.md §5); at that rate a sign test over "
-                    f"{self.n} days names it with probability "
-                    f"{power:.2f}, and {self.wins} or fewer wins have "
-                    f"probability {binom.cdf(self.wins, self.n, rate):.2f}.")
+            out += (" The record has no wind and the law is the balance with one latent-heat "
+                    "coefficient and nothing else at the surface: its sensible heat is one "
+                    "transfer coefficient and its forcing (the net radiation, the air "
+                    "temperature) is the base's; over a dry surface it is the base with h(t) "
+                    "held constant, and forecasts better only by having fewer parameters. On "
+                    f"still twins where it is exactly the truth it won {STILL_WON} of "
+                    f"{STILL_DAYS} days (docs/VALIDATION.md §5); at that rate "
+                    + (f"a sign test over {self.n} days names it with probability {power:.2f}"
+                       if need is not None else f"{self.n} days are too few for the sign test "
+                       "to name it")
+                    + f", and {self.wins} or fewer wins have probability "
+                    f"{binom.cdf(self.wins, self.n, rate):.3f}.")
         odd = [d for d in self.days if d.fit_suspect]
         if odd:
             won = sum(d.law_better for d in odd)
@@ -341,8 +345,8 @@ def _rolling(base, law, window_h, horizon_h, step_h, start_h, days, max_nfev, on
                           "same data")
     built = {c: case_problem(c, first) for c in (str(base), str(law))}  # the first window's
     also = _also_added(built[str(base)][0].model, built[str(law)][0].model)
-    windless = _windless(built[str(base)][0].model, built[str(law)][0].model)
     seen = _also_observed(built[str(base)][0].posterior, built[str(law)][0].posterior)
+    windless = not seen and _windless(built[str(base)][0].model, built[str(law)][0].model)
     t0 = parse_time(times[0]).timestamp()
     out, warm = None, {}
     for i, a in enumerate(starts):
@@ -371,14 +375,14 @@ def _also_added(base_model, law_model) -> list[str]:
 
 
 def _windless(base_model, law_model) -> bool:
-    """Whether ``base_model`` has a free h(t) of more than one piece and ``law_model`` on a
-    record without wind is the Priestley–Taylor balance with no other surface effect than the
-    base's (ground effects aside; module doc, *A still record*)."""
-    if base_model.replaces_h or len(base_model.h_basis.names) < 2 or law_model.meas.wind is not None:
+    """Whether ``base_model`` has a free h(t), one value per interval, and ``law_model`` on a
+    record without wind is ``energy_balance_window`` with no other surface effect than the
+    base's (ground effects aside; module doc, *A still record*): the still twins' setting."""
+    if base_model.replaces_h or not base_model.h_basis.identity or law_model.meas.wind is not None:
         return False
     have = {e.name for e in base_model.extensions} | {e.name for e in ground_extensions(law_model)}
     more = [e for e in law_model.extensions if e.name not in have]
-    return len(more) == 1 and type(more[0]) in (EnergyBalance, EnergyBalanceWindow)
+    return len(more) == 1 and type(more[0]) is EnergyBalanceWindow
 
 
 def _also_observed(base_posterior, law_posterior) -> list[str]:
