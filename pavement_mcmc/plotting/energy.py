@@ -13,7 +13,7 @@ from ._base import hours, new_figure, time_label
 __all__ = ["plot_energy_balance"]
 
 _FLUXES = (("H", "sensible heat H", "C3"), ("LE", "latent heat LE", "C0"),
-           ("G", "ground heat G", "C5"), ("off", "other surface terms (a shadow...)", "0.55"))
+           ("G", "ground heat G", "C5"), ("off", "other surface terms (a shadow, ...)", "0.55"))
 
 
 def _band(ax, x, draws, colour, label, level):

@@ -206,7 +206,7 @@ class Partition:
 
 #: the midday ratios of :meth:`Partition.midday`, as a table or a line names them
 MIDDAY_NAMES = {"bowen": "Bowen ratio H/LE", "G_Rn": "G/Rn", "LE_Rn": "LE/Rn", "H_Rn": "H/Rn",
-                "off_Rn": "taken off the spot by other terms (a shadow...)/Rn"}
+                "off_Rn": "taken off by other surface terms/Rn"}
 
 
 def other_terms(model, p: dict[str, np.ndarray], law) -> np.ndarray:
