@@ -128,8 +128,8 @@ class Rolling:
     also_added: list[str] = field(default_factory=list)
     #: observation streams the law's case fits and the base's does not (module doc)
     also_observed: list[str] = field(default_factory=list)
-    #: the base has a free h(t) and the law is an energy balance on a record without wind
-    #: (module doc, *A still record*)
+    #: the still twins' setting: a free h(t) per interval against energy_balance_window with
+    #: nothing else at the surface, on a record without wind (module doc, *A still record*)
     windless: bool = False
     #: the base's case as given (``CASE.toml+ext``), for the command the verdict suggests
     base_case: str = "BASE.toml"
