@@ -134,9 +134,14 @@ class EnergyBalance(Extension):
         avail = priestley_taylor_weight(meas.T_air) * np.clip(meas.q_net, 0.0, None)
         return a_t * avail[None, :]
 
+    @staticmethod
+    def set_h(coeffs, h: np.ndarray) -> None:
+        """The solver's h per interval from ``h`` (n_sets, n_obs) at the observation times (the
+        mean of each interval's ends)."""
+        coeffs.h = 0.5 * (h[:, :-1] + h[:, 1:])
+
     def surface(self, coeffs, p, model):
-        hH = self.transfer(p, model.meas)
-        coeffs.h = 0.5 * (hH[:, :-1] + hH[:, 1:])
+        self.set_h(coeffs, self.transfer(p, model.meas))
         coeffs.q -= self.latent(p, model.meas)
 
 

@@ -144,8 +144,7 @@ class EnergyBalancePM(EnergyBalance):
 
     def surface(self, coeffs, p, model):
         f, V = self.terms(p, model.meas)
-        h = self.transfer(p, model.meas) / (1.0 - f)
-        coeffs.h = 0.5 * (h[:, :-1] + h[:, 1:])
+        self.set_h(coeffs, self.transfer(p, model.meas) / (1.0 - f))
         coeffs.q -= V / (1.0 - f)
 
 

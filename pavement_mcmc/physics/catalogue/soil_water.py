@@ -116,5 +116,4 @@ class EnergyBalanceSoilWater(EnergyBalanceWindow):
                                       - (0.0 if G is None else G))
 
     def surface(self, coeffs, p, model):
-        h = self.transfer(p, model.meas) / (1.0 - self.share(p, model.meas))
-        coeffs.h = 0.5 * (h[:, :-1] + h[:, 1:])
+        self.set_h(coeffs, self.transfer(p, model.meas) / (1.0 - self.share(p, model.meas)))
